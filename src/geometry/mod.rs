@@ -1,0 +1,2 @@
+//! Geometry kernels: pure functions on triangles, points and boxes.
+pub mod sat;

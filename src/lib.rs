@@ -1,0 +1,23 @@
+//! `vps`: the haptic data structures of the Voxmap-PointShell algorithm (Sagardia et al. 2008),
+//! sparse, memory-mapped and compressed.
+//!
+//! The rooms of the house:
+//! - [`geometry`]: kernels (triangle–box SAT) that know nothing of grids or files;
+//! - [`grid`]: where voxels and bricks sit in the world;
+//! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
+//! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ files or built in code;
+//! - [`generate`]: mesh → voxmap;
+//! - [`storage`]: the `.vxm` file, memory-mapped (format in `docs/FORMAT.md`);
+//! - [`render`]: pictures of slices;
+//! - [`reference`]: slow, obvious versions of the fast paths, for tests and benchmarks.
+#![cfg(target_endian = "little")]
+
+pub mod generate;
+pub mod geometry;
+pub mod grid;
+pub mod mesh;
+pub mod reference;
+pub mod render;
+pub mod shapes;
+pub mod storage;
+pub mod voxmap;

@@ -1,0 +1,1 @@
+//! Exact triangle–box overlap by clipping the triangle to the box.

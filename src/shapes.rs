@@ -1,0 +1,1 @@
+//! Meshes built in code: spheres, tori, boxes, thin shells, assemblies.

@@ -1,0 +1,1 @@
+//! The `.vxm` file: see `docs/FORMAT.md`.

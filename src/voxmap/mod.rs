@@ -1,0 +1,173 @@
+//! The sparse voxmap: bricks of 8³ signed layer values, and uniform tiles for everything else.
+//!
+//! This module knows nothing of meshes or files. A voxmap holds
+//! - stored bricks, each 512 `i8` values, sorted by brick key;
+//! - inside tiles: runs of brick keys whose voxels are all deep inside, `+(layers + 1)`;
+//! - everything else is far outside, `-(layers + 1)`.
+
+pub mod fill;
+pub mod layers;
+pub mod mask;
+
+use crate::grid::{split_voxel, Grid, BRICK_VOXELS};
+pub use mask::Mask512;
+
+/// The 512 values of one brick, local index x fastest (see [`crate::grid::local_index`]).
+pub type BrickValues = [i8; BRICK_VOXELS];
+
+/// Largest number of layers: values stay within `i8` with room for the deep value.
+pub const MAX_LAYERS: u8 = 126;
+
+/// A half-open range `[start, end)` of brick keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct KeyRange {
+    /// First key in the range.
+    pub start: u64,
+    /// One past the last key.
+    pub end: u64,
+}
+
+/// One brick whose values are not all the same far value.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Brick {
+    /// Brick key, see [`Grid::brick_key`].
+    pub key: u64,
+    /// Its values.
+    pub values: Box<BrickValues>,
+}
+
+/// What one brick position holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BrickRef<'a> {
+    /// A stored brick.
+    Stored(&'a BrickValues),
+    /// A uniform tile: every voxel has this value.
+    Tile(i8),
+}
+
+/// Voxel counts of a voxmap.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VoxmapCounts {
+    /// Voxels with value 0.
+    pub surface_voxels: u64,
+    /// Voxels with value > 0, counting those in inside tiles.
+    pub inner_voxels: u64,
+    /// Bricks stored with their values.
+    pub bricks_stored: u64,
+    /// Bricks that are uniform inside tiles.
+    pub inside_tile_bricks: u64,
+}
+
+/// A voxmap held in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Voxmap {
+    grid: Grid,
+    layers: u8,
+    bricks: Vec<Brick>,
+    inside: Vec<KeyRange>,
+    counts: VoxmapCounts,
+}
+
+/// The value of voxels deep inside: `+(layers + 1)`.
+#[inline]
+pub fn inside_value(layers: u8) -> i8 {
+    layers as i8 + 1
+}
+
+/// The value of voxels far outside, and of every point beyond the grid: `-(layers + 1)`.
+#[inline]
+pub fn outside_value(layers: u8) -> i8 {
+    -(layers as i8) - 1
+}
+
+impl Voxmap {
+    /// Assemble a voxmap from bricks sorted by key and disjoint sorted inside runs.
+    ///
+    /// Panics in debug builds if the order is wrong; generation builds these in order.
+    pub fn from_parts(grid: Grid, layers: u8, bricks: Vec<Brick>, inside: Vec<KeyRange>) -> Voxmap {
+        debug_assert!(bricks.windows(2).all(|w| w[0].key < w[1].key));
+        debug_assert!(inside.windows(2).all(|w| w[0].end <= w[1].start));
+        let mut counts = VoxmapCounts {
+            bricks_stored: bricks.len() as u64,
+            ..Default::default()
+        };
+        for b in &bricks {
+            for &v in b.values.iter() {
+                counts.surface_voxels += (v == 0) as u64;
+                counts.inner_voxels += (v > 0) as u64;
+            }
+        }
+        counts.inside_tile_bricks = inside.iter().map(|r| r.end - r.start).sum();
+        counts.inner_voxels += counts.inside_tile_bricks * BRICK_VOXELS as u64;
+        Voxmap {
+            grid,
+            layers,
+            bricks,
+            inside,
+            counts,
+        }
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Number of layers on each side of the surface.
+    pub fn layers(&self) -> u8 {
+        self.layers
+    }
+
+    /// Stored bricks, sorted by key.
+    pub fn bricks(&self) -> &[Brick] {
+        &self.bricks
+    }
+
+    /// Inside tile runs, sorted and disjoint.
+    pub fn inside_runs(&self) -> &[KeyRange] {
+        &self.inside
+    }
+
+    /// Voxel counts.
+    pub fn counts(&self) -> VoxmapCounts {
+        self.counts
+    }
+
+    /// What brick `key` holds.
+    pub fn brick(&self, key: u64) -> BrickRef<'_> {
+        if let Ok(i) = self.bricks.binary_search_by_key(&key, |b| b.key) {
+            return BrickRef::Stored(&self.bricks[i].values);
+        }
+        if in_runs(&self.inside, key) {
+            BrickRef::Tile(inside_value(self.layers))
+        } else {
+            BrickRef::Tile(outside_value(self.layers))
+        }
+    }
+
+    /// The value of voxel `v`; beyond the grid, the far outside value.
+    pub fn value(&self, v: [u32; 3]) -> i8 {
+        if (0..3).any(|a| v[a] >= self.grid.dims[a]) {
+            return outside_value(self.layers);
+        }
+        let (b, local) = split_voxel(v);
+        match self.brick(self.grid.brick_key(b)) {
+            BrickRef::Stored(values) => values[local],
+            BrickRef::Tile(t) => t,
+        }
+    }
+
+    /// The value of the voxel containing world point `p`; beyond the grid, the far outside value.
+    pub fn value_at(&self, p: glam::DVec3) -> i8 {
+        match self.grid.voxel_of(p) {
+            Some(v) => self.value(v),
+            None => outside_value(self.layers),
+        }
+    }
+}
+
+/// Whether `key` lies in one of the sorted, disjoint `runs`.
+pub fn in_runs(runs: &[KeyRange], key: u64) -> bool {
+    let i = runs.partition_point(|r| r.end <= key);
+    i < runs.len() && runs[i].start <= key
+}
