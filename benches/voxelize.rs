@@ -1,1 +1,81 @@
-fn main() {}
+//! Benchmarks of generation: the navigations side by side at coarse and fine resolution, the
+//! flood fill, the layers, and the whole pipeline. Run with `cargo bench --bench voxelize`.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use glam::DVec3;
+use std::hint::black_box;
+
+use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
+use vps::generate::surface::{mark_surface, to_grid_units};
+use vps::generate::{voxelize, VoxelizeParams};
+use vps::geometry::sat::SatTriangle;
+use vps::grid::Grid;
+use vps::mesh::Mesh;
+use vps::shapes;
+use vps::voxmap::fill::Outside;
+use vps::voxmap::layers::distance_layers;
+
+/// Triangles of a sphere of radius 1 scaled so each triangle spans about `span` voxels.
+fn sphere_triangles_in_grid_units(span: f64) -> Vec<SatTriangle> {
+    let tris = shapes::sphere(DVec3::ZERO, 1.0, 24, 48);
+    // The longest edge of this tessellation is about 2π/48 ≈ 0.13 of the radius.
+    let scale = span / 0.13;
+    tris.iter()
+        .map(|t| SatTriangle::new(t.map(|p| p * scale + DVec3::splat(scale + 4.3))))
+        .collect()
+}
+
+fn navigation(c: &mut Criterion) {
+    let mut g = c.benchmark_group("navigation");
+    g.sample_size(20);
+    for span in [2.0, 8.0, 32.0, 128.0] {
+        let tris = sphere_triangles_in_grid_units(span);
+        g.throughput(Throughput::Elements(tris.len() as u64));
+        for nav in [Navigation::BoundingBox, Navigation::ZRange, Navigation::Narrowing, Navigation::Auto] {
+            if nav == Navigation::BoundingBox && span > 40.0 {
+                continue;
+            }
+            g.bench_with_input(BenchmarkId::new(format!("{nav:?}"), span), &tris, |b, tris| {
+                b.iter(|| {
+                    let mut st = NavStats::default();
+                    let mut n = 0u64;
+                    for t in tris {
+                        touched_voxels(t, [0; 3], [i64::MAX / 4; 3], nav, &mut st, |v| n += v[0] as u64);
+                    }
+                    black_box((n, st))
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+fn fill_and_layers(c: &mut Criterion) {
+    let mesh = shapes::demo_assembly();
+    let (lo, hi) = mesh.bounds();
+    let grid = Grid::around(lo, hi, 0.25, 7).unwrap();
+    let tris = to_grid_units(&grid, &mesh.triangles);
+    let surface = mark_surface(&grid, &tris, Navigation::Auto);
+    let nb = grid.brick_dims();
+    let mut g = c.benchmark_group("fill_and_layers");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(surface.bricks.len() as u64));
+    g.bench_function("flood_fill", |b| b.iter(|| black_box(Outside::flood(nb, &surface.bricks))));
+    g.bench_function("layers_5", |b| b.iter(|| black_box(distance_layers(nb, &surface.bricks, 5))));
+    g.bench_function("surface", |b| b.iter(|| black_box(mark_surface(&grid, &tris, Navigation::Auto))));
+    g.finish();
+}
+
+fn pipeline(c: &mut Criterion) {
+    let mesh: Mesh = shapes::demo_assembly();
+    let mut g = c.benchmark_group("voxelize");
+    g.sample_size(10);
+    for s in [1.0, 0.5] {
+        let params = VoxelizeParams { voxel_size: s, layers: 5, ..Default::default() };
+        g.bench_with_input(BenchmarkId::new("demo_assembly", s), &params, |b, p| b.iter(|| black_box(voxelize(&mesh, p).unwrap())));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, navigation, fill_and_layers, pipeline);
+criterion_main!(benches);

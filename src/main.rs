@@ -1,1 +1,651 @@
-fn main() {}
+//! `vps`: the command line. Thin: parse, call the library, print.
+
+use std::io::{BufRead, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use glam::DVec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use vps::generate::{voxelize_with, Navigation, VoxelizeParams, VoxelizeReport};
+use vps::mesh::Mesh;
+use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
+use vps::voxmap::Voxmap;
+
+#[derive(Parser)]
+#[command(
+    name = "vps",
+    version,
+    about = "Voxmap-PointShell haptic data structures"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum NavArg {
+    Auto,
+    Zrange,
+    Narrowing,
+    Bbox,
+}
+
+impl From<NavArg> for Navigation {
+    fn from(n: NavArg) -> Navigation {
+        match n {
+            NavArg::Auto => Navigation::Auto,
+            NavArg::Zrange => Navigation::ZRange,
+            NavArg::Narrowing => Navigation::Narrowing,
+            NavArg::Bbox => Navigation::BoundingBox,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Voxelize an OBJ mesh (.obj or .obj.zst) into a .vxm voxmap.
+    Voxelize {
+        /// The mesh.
+        mesh: PathBuf,
+        /// Voxel edge length, in the mesh's units.
+        #[arg(long)]
+        voxel_size: f64,
+        /// Layers on each side of the surface (0..=126).
+        #[arg(long, default_value_t = 5)]
+        layers: u32,
+        /// Output file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// How candidate voxels are chosen in each triangle's bounding box.
+        #[arg(long, value_enum, default_value_t = NavArg::Auto)]
+        navigation: NavArg,
+        /// Print the summary as one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Describe a .vxm file: grid, counts, bricks, bytes.
+    Info {
+        /// The file.
+        file: PathBuf,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print the value of the voxel containing each point ("x y z" per line, world units).
+    Probe {
+        /// The file.
+        file: PathBuf,
+        /// Points file, or - for standard input.
+        #[arg(long)]
+        points: PathBuf,
+    },
+    /// Check every checksum and count of a .vxm file.
+    Verify {
+        /// The file.
+        file: PathBuf,
+    },
+    /// Write a PNG picture of one axis-aligned slice.
+    Slice {
+        /// The file.
+        file: PathBuf,
+        /// Axis normal to the slice.
+        #[arg(long, value_enum)]
+        axis: Axis,
+        /// World coordinate of the slice along the axis.
+        #[arg(long, conflicts_with = "index", required_unless_present = "index")]
+        at: Option<f64>,
+        /// Voxel index of the slice along the axis.
+        #[arg(long)]
+        index: Option<u32>,
+        /// Output PNG.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Run the whole pipeline on a built-in assembly: no input file needed.
+    Demo {
+        /// Directory for demo.vxm and demo_slice.png.
+        #[arg(long, default_value = ".")]
+        out_dir: PathBuf,
+        /// Voxel size for the built-in model (about 120 units across).
+        #[arg(long, default_value_t = 0.25)]
+        voxel_size: f64,
+    },
+    /// Voxelize a mesh at several resolutions and print rates, memory and bytes.
+    Bench {
+        /// The mesh; the built-in assembly when absent.
+        mesh: Option<PathBuf>,
+        /// Target grid sizes in voxels (the voxel size is chosen from the bounding box).
+        #[arg(long, value_delimiter = ',', default_value = "1e6,1e7,1e8")]
+        targets: Vec<f64>,
+        /// Voxel sizes to use instead of targets.
+        #[arg(long, value_delimiter = ',')]
+        voxel_sizes: Vec<f64>,
+        /// Layers.
+        #[arg(long, default_value_t = 5)]
+        layers: u32,
+        /// Navigations to run (each at every size).
+        #[arg(long, value_enum, value_delimiter = ',', default_value = "auto")]
+        navigation: Vec<NavArg>,
+        /// Print one JSON object per run.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("VPS_LOG")
+                .unwrap_or_else(|_| "warn".into()),
+        )
+        .init();
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Voxelize {
+            mesh,
+            voxel_size,
+            layers,
+            output,
+            navigation,
+            json,
+        } => {
+            let params = params(voxel_size, layers, navigation.into())?;
+            let mesh = load_mesh(&mesh)?;
+            let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &output)?;
+            print_voxelize_summary(&output, &vm, &report, &write, secs, json);
+            Ok(())
+        }
+        Command::Info { file, json } => info(&file, json),
+        Command::Probe { file, points } => probe(&file, &points),
+        Command::Verify { file } => {
+            let f = open(&file)?;
+            let r = f
+                .verify()
+                .with_context(|| format!("{} failed verification", file.display()))?;
+            println!(
+                "ok: {} bricks and {} inside runs checked, {} surface voxels, {} inner voxels, {} bytes",
+                r.bricks_checked, r.inside_runs, r.counts.surface_voxels, r.counts.inner_voxels, r.file_bytes
+            );
+            Ok(())
+        }
+        Command::Slice {
+            file,
+            axis,
+            at,
+            index,
+            output,
+        } => {
+            let f = open(&file)?;
+            let (w, h) = slice(&f, axis, at, index, &output)?;
+            println!("wrote {} ({w}×{h} voxels)", output.display());
+            Ok(())
+        }
+        Command::Demo {
+            out_dir,
+            voxel_size,
+        } => demo(&out_dir, voxel_size),
+        Command::Bench {
+            mesh,
+            targets,
+            voxel_sizes,
+            layers,
+            navigation,
+            json,
+        } => bench(
+            mesh.as_deref(),
+            &targets,
+            &voxel_sizes,
+            layers,
+            &navigation,
+            json,
+        ),
+    }
+}
+
+fn params(voxel_size: f64, layers: u32, navigation: Navigation) -> Result<VoxelizeParams> {
+    if !(voxel_size.is_finite() && voxel_size > 0.0) {
+        bail!("--voxel-size must be a positive number, got {voxel_size}");
+    }
+    if layers > vps::voxmap::MAX_LAYERS as u32 {
+        bail!(
+            "--layers must be at most {}, got {layers}",
+            vps::voxmap::MAX_LAYERS
+        );
+    }
+    Ok(VoxelizeParams {
+        voxel_size,
+        layers: layers as u8,
+        navigation,
+    })
+}
+
+fn spinner(msg: &str) -> ProgressBar {
+    let pb = ProgressBar::new_spinner();
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+            .expect("static template"),
+    );
+    pb.enable_steady_tick(Duration::from_millis(120));
+    pb.set_message(msg.to_string());
+    pb
+}
+
+fn load_mesh(path: &Path) -> Result<Mesh> {
+    let pb = spinner(&format!("reading {}", path.display()));
+    let mesh = Mesh::load_obj(path)?;
+    pb.finish_and_clear();
+    if mesh.degenerate_skipped > 0 {
+        eprintln!(
+            "note: skipped {} degenerate triangles",
+            mesh.degenerate_skipped
+        );
+    }
+    Ok(mesh)
+}
+
+fn voxelize_to_file(
+    mesh: &Mesh,
+    params: &VoxelizeParams,
+    output: &Path,
+) -> Result<(Voxmap, VoxelizeReport, WriteReport, f64)> {
+    let start = Instant::now();
+    let pb = spinner("voxelizing");
+    let phase = |p: &str| pb.set_message(format!("voxelizing: {p}"));
+    let (vm, report) = voxelize_with(mesh, params, &phase)?;
+    pb.set_message(format!("writing {}", output.display()));
+    let write =
+        write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
+    pb.finish_and_clear();
+    if report.leaks {
+        eprintln!(
+            "warning: the model leaks: the outside flood fill reached every non-surface voxel, so nothing is inside \
+             (the mesh is not closed at voxel size {}); inner_voxels is 0",
+            params.voxel_size
+        );
+    }
+    Ok((vm, report, write, start.elapsed().as_secs_f64()))
+}
+
+fn print_voxelize_summary(
+    output: &Path,
+    vm: &Voxmap,
+    r: &VoxelizeReport,
+    w: &WriteReport,
+    secs: f64,
+    json: bool,
+) {
+    let g = vm.grid();
+    let c = vm.counts();
+    let sat_per_surface = r.nav.sat_tests as f64 / r.surface_voxels.max(1) as f64;
+    if json {
+        let j = json!({
+            "output": output.display().to_string(),
+            "triangles": r.triangles,
+            "degenerate_skipped": r.degenerate_skipped,
+            "voxel_size": g.voxel_size,
+            "dims": g.dims,
+            "grid_voxels": g.voxel_count(),
+            "layers": vm.layers(),
+            "surface_voxels": c.surface_voxels,
+            "inner_voxels": c.inner_voxels,
+            "bricks_stored": c.bricks_stored,
+            "sat_tests": r.nav.sat_tests,
+            "sat_tests_per_surface_voxel": sat_per_surface,
+            "leaks": r.leaks,
+            "file_bytes": w.file_bytes,
+            "seconds": secs,
+            "surface_seconds": r.t_surface.as_secs_f64(),
+            "fill_seconds": r.t_fill.as_secs_f64(),
+            "layers_seconds": r.t_layers.as_secs_f64(),
+            "peak_rss_bytes": peak_rss_bytes(),
+        });
+        println!("{j}");
+    } else {
+        println!("wrote {}", output.display());
+        println!(
+            "  triangles        {} ({} degenerate skipped)",
+            r.triangles, r.degenerate_skipped
+        );
+        println!(
+            "  grid             {} × {} × {} = {} voxels of {}",
+            g.dims[0],
+            g.dims[1],
+            g.dims[2],
+            g.voxel_count(),
+            g.voxel_size
+        );
+        println!(
+            "  surface voxels   {} ({:.2} SAT tests each)",
+            c.surface_voxels, sat_per_surface
+        );
+        println!(
+            "  inner voxels     {}{}",
+            c.inner_voxels,
+            if r.leaks { " (model leaks)" } else { "" }
+        );
+        println!("  bricks stored    {}", c.bricks_stored);
+        println!("  file             {} bytes", w.file_bytes);
+        println!(
+            "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3})",
+            r.t_surface.as_secs_f64(),
+            r.t_fill.as_secs_f64(),
+            r.t_layers.as_secs_f64()
+        );
+        if let Some(rss) = peak_rss_bytes() {
+            println!(
+                "  peak RSS         {:.1} MiB",
+                rss as f64 / (1 << 20) as f64
+            );
+        }
+    }
+}
+
+fn open(path: &Path) -> Result<VoxmapFile> {
+    VoxmapFile::open(path).with_context(|| format!("cannot open voxmap {}", path.display()))
+}
+
+fn info(path: &Path, json: bool) -> Result<()> {
+    let f = open(path)?;
+    let h = f.header();
+    let g = h.grid;
+    let c = h.counts;
+    let uncompressed = c.bricks_stored * vps::grid::BRICK_VOXELS as u64;
+    let ratio = uncompressed as f64 / h.payload_bytes.max(1) as f64;
+    if json {
+        let j = json!({
+            "format_version": h.version,
+            "voxel_size": g.voxel_size,
+            "origin": g.origin.to_array(),
+            "dims": g.dims,
+            "grid_voxels": g.voxel_count(),
+            "layers": h.layers,
+            "surface_voxels": c.surface_voxels,
+            "inner_voxels": c.inner_voxels,
+            "bricks_stored": c.bricks_stored,
+            "inside_tile_bricks": c.inside_tile_bricks,
+            "inside_runs": h.inside_runs,
+            "payload_bytes": h.payload_bytes,
+            "file_bytes": h.file_bytes,
+            "uncompressed_bytes": uncompressed,
+            "compression_ratio": ratio,
+            "bytes_per_stored_voxel": h.payload_bytes as f64 / uncompressed.max(1) as f64,
+        });
+        println!("{j}");
+    } else {
+        println!("{}: voxmap format {}", path.display(), h.version);
+        println!(
+            "  grid             {} × {} × {} = {} voxels",
+            g.dims[0],
+            g.dims[1],
+            g.dims[2],
+            g.voxel_count()
+        );
+        println!("  voxel size       {}", g.voxel_size);
+        println!(
+            "  origin           {} {} {}",
+            g.origin.x, g.origin.y, g.origin.z
+        );
+        println!("  layers           {}", h.layers);
+        println!("  surface voxels   {}", c.surface_voxels);
+        println!("  inner voxels     {}", c.inner_voxels);
+        println!(
+            "  bricks stored    {} (+ {} inside tile bricks in {} runs)",
+            c.bricks_stored, c.inside_tile_bricks, h.inside_runs
+        );
+        println!(
+            "  bytes            {} in file, {} uncompressed bricks ({ratio:.1}:1)",
+            h.file_bytes, uncompressed
+        );
+    }
+    Ok(())
+}
+
+fn probe(path: &Path, points: &Path) -> Result<()> {
+    let f = open(path)?;
+    let reader: Box<dyn BufRead> = if points.as_os_str() == "-" {
+        Box::new(std::io::stdin().lock())
+    } else {
+        Box::new(std::io::BufReader::new(
+            std::fs::File::open(points)
+                .with_context(|| format!("cannot read points {}", points.display()))?,
+        ))
+    };
+    let mut out = BufWriter::new(std::io::stdout().lock());
+    for (n, line) in reader.lines().enumerate() {
+        let line = line.with_context(|| format!("reading {}", points.display()))?;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let c: Vec<f64> = t
+            .split(|ch: char| ch.is_whitespace() || ch == ',')
+            .filter(|s| !s.is_empty())
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .ok()
+            .filter(|c: &Vec<f64>| c.len() == 3 && c.iter().all(|x| x.is_finite()))
+            .with_context(|| {
+                format!(
+                    "{} line {}: expected three finite numbers \"x y z\", got {t:?}",
+                    points.display(),
+                    n + 1
+                )
+            })?;
+        let v = f.value_at(DVec3::new(c[0], c[1], c[2]))?;
+        writeln!(out, "{v}")?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// Extract a slice and write its picture; returns its size in voxels.
+fn slice(
+    f: &VoxmapFile,
+    axis: Axis,
+    at: Option<f64>,
+    index: Option<u32>,
+    output: &Path,
+) -> Result<(u32, u32)> {
+    let g = *f.grid();
+    let a = axis as usize;
+    let k = match (at, index) {
+        (_, Some(i)) => i as i64,
+        (Some(w), None) => ((w - g.origin[a]) / g.voxel_size).floor() as i64,
+        (None, None) => bail!("give --at or --index"),
+    };
+    if k < 0 || k >= g.dims[a] as i64 {
+        bail!(
+            "slice {k} along {axis:?} is outside the grid (0..{})",
+            g.dims[a]
+        );
+    }
+    // Image axes: z-slices show x across and y up; x-slices y across and z up; y-slices x across, z up.
+    let (u, v) = match axis {
+        Axis::X => (1, 2),
+        Axis::Y => (0, 2),
+        Axis::Z => (0, 1),
+    };
+    let (w, h) = (g.dims[u], g.dims[v]);
+    if w as u64 * h as u64 > 1 << 30 {
+        bail!("slice of {w}×{h} voxels is too large to draw");
+    }
+    let mut values = vec![0i8; w as usize * h as usize];
+    let nb = g.brick_dims();
+    let bk = (k as u32) >> vps::grid::BRICK_SHIFT;
+    let lk = k as u32 & (vps::grid::BRICK - 1);
+    for bu in 0..nb[u] {
+        for bv in 0..nb[v] {
+            let mut b = [0u32; 3];
+            b[a] = bk;
+            b[u] = bu;
+            b[v] = bv;
+            let data = f.brick(g.brick_key(b))?;
+            for lu in 0..vps::grid::BRICK {
+                for lv in 0..vps::grid::BRICK {
+                    let mut l = [0u32; 3];
+                    l[a] = lk;
+                    l[u] = lu;
+                    l[v] = lv;
+                    let val = match &data {
+                        BrickData::Stored(vals) => vals[vps::grid::local_index(l[0], l[1], l[2])],
+                        BrickData::Tile(t) => *t,
+                    };
+                    let (x, y) = (bu * vps::grid::BRICK + lu, bv * vps::grid::BRICK + lv);
+                    let row = h - 1 - y;
+                    values[row as usize * w as usize + x as usize] = val;
+                }
+            }
+        }
+    }
+    vps::render::slice_png(&values, w, h, f.layers(), output)?;
+    Ok((w, h))
+}
+
+fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
+    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+    let mesh = vps::shapes::demo_assembly();
+    println!(
+        "demo: built-in assembly of {} objects, {} triangles (sphere, torus, block, hollow shell, open sheet)",
+        mesh.objects.len(),
+        mesh.triangles.len()
+    );
+    let out = out_dir.join("demo.vxm");
+    let params = params(voxel_size, 5, Navigation::Auto)?;
+    let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &out)?;
+    print_voxelize_summary(&out, &vm, &report, &write, secs, false);
+    let f = open(&out)?;
+    let r = f.verify()?;
+    println!("verified {} bricks", r.bricks_checked);
+    let png = out_dir.join("demo_slice.png");
+    slice(&f, Axis::Z, Some(30.0), None, &png)?;
+    println!("slice z = 30 written to {}", png.display());
+    let probes = [
+        DVec3::new(30.0, 30.0, 30.0),
+        DVec3::new(30.0, 30.0, 50.0),
+        DVec3::new(92.5, 87.5, 27.5),
+        DVec3::new(-100.0, 0.0, 0.0),
+    ];
+    for p in probes {
+        println!(
+            "  value at ({}, {}, {}) = {}",
+            p.x,
+            p.y,
+            p.z,
+            f.value_at(p)?
+        );
+    }
+    Ok(())
+}
+
+fn bench(
+    mesh: Option<&Path>,
+    targets: &[f64],
+    sizes: &[f64],
+    layers: u32,
+    navs: &[NavArg],
+    json: bool,
+) -> Result<()> {
+    let (mesh, name) = match mesh {
+        Some(p) => (load_mesh(p)?, p.display().to_string()),
+        None => (
+            vps::shapes::demo_assembly(),
+            "built-in assembly".to_string(),
+        ),
+    };
+    let (lo, hi) = mesh.bounds();
+    let ext = hi - lo;
+    let sizes: Vec<f64> = if sizes.is_empty() {
+        targets
+            .iter()
+            .map(|t| (ext.x * ext.y * ext.z / t).cbrt())
+            .collect()
+    } else {
+        sizes.to_vec()
+    };
+    let dir = tempfile::tempdir().context("creating a temporary directory")?;
+    if !json {
+        println!("{name}: {} triangles", mesh.triangles.len());
+        println!(
+            "{:>10} {:>10} {:>14} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>12}",
+            "nav",
+            "voxel",
+            "grid voxels",
+            "surface",
+            "time s",
+            "tri/s",
+            "voxels/s",
+            "SAT/surf",
+            "peak MiB",
+            "file bytes"
+        );
+    }
+    for &s in &sizes {
+        for &nav in navs {
+            let params = params(s, layers, nav.into())?;
+            reset_peak_rss();
+            let out = dir.path().join("bench.vxm");
+            let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &out)?;
+            let g = vm.grid();
+            let rss = peak_rss_bytes().unwrap_or(0) as f64 / (1 << 20) as f64;
+            let sat = report.nav.sat_tests as f64 / report.surface_voxels.max(1) as f64;
+            if json {
+                println!(
+                    "{}",
+                    json!({"mesh": name, "navigation": format!("{nav:?}").to_lowercase(), "voxel_size": s, "grid_voxels": g.voxel_count(),
+                        "surface_voxels": report.surface_voxels, "seconds": secs, "surface_seconds": report.t_surface.as_secs_f64(),
+                        "fill_seconds": report.t_fill.as_secs_f64(), "layers_seconds": report.t_layers.as_secs_f64(),
+                        "triangles_per_second": report.triangles as f64 / secs, "voxels_per_second": g.voxel_count() as f64 / secs,
+                        "sat_tests_per_surface_voxel": sat, "peak_rss_mib": rss, "file_bytes": write.file_bytes,
+                        "bricks_stored": write.bricks_stored, "payload_bytes_per_stored_voxel": write.payload_bytes as f64 / write.uncompressed_bytes.max(1) as f64})
+                );
+            } else {
+                println!(
+                    "{:>10} {:>10.4} {:>14} {:>12} {:>9.3} {:>10.3e} {:>12.3e} {:>9.2} {:>10.1} {:>12}",
+                    format!("{nav:?}").to_lowercase(),
+                    s,
+                    g.voxel_count(),
+                    report.surface_voxels,
+                    secs,
+                    report.triangles as f64 / secs,
+                    g.voxel_count() as f64 / secs,
+                    sat,
+                    rss,
+                    write.file_bytes
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Peak resident set size of this process (Linux `VmHWM`), if known.
+fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Reset the peak RSS counter (Linux: writing 5 to `clear_refs`), so each bench run has its own.
+fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}

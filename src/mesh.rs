@@ -81,14 +81,21 @@ pub fn is_degenerate(t: &Triangle) -> bool {
 
 impl Mesh {
     /// A mesh of one object from triangles; degenerate ones are skipped and counted.
-    pub fn from_triangles(name: &str, triangles: impl IntoIterator<Item = Triangle>) -> Result<Mesh, MeshError> {
+    pub fn from_triangles(
+        name: &str,
+        triangles: impl IntoIterator<Item = Triangle>,
+    ) -> Result<Mesh, MeshError> {
         let mut mesh = Mesh::default();
         mesh.push_object(name, triangles)?;
         mesh.check_nonempty()
     }
 
     /// Append an object; degenerate triangles are skipped, non-finite vertices are an error.
-    pub fn push_object(&mut self, name: &str, triangles: impl IntoIterator<Item = Triangle>) -> Result<(), MeshError> {
+    pub fn push_object(
+        &mut self,
+        name: &str,
+        triangles: impl IntoIterator<Item = Triangle>,
+    ) -> Result<(), MeshError> {
         let start = self.triangles.len();
         for (i, t) in triangles.into_iter().enumerate() {
             if let Some(k) = (0..3).find(|&k| !t[k].is_finite()) {
@@ -159,10 +166,11 @@ impl Mesh {
             ..Default::default()
         };
         // Materials do not matter for voxelization; a missing .mtl must not fail the load.
-        let (models, _) = tobj::load_obj_buf(reader, &options, |_| Ok(Default::default())).map_err(|e| MeshError::Obj {
-            where_: None,
-            reason: e.to_string(),
-        })?;
+        let (models, _) = tobj::load_obj_buf(reader, &options, |_| Ok(Default::default()))
+            .map_err(|e| MeshError::Obj {
+                where_: None,
+                reason: e.to_string(),
+            })?;
         let mut mesh = Mesh::default();
         for (m, model) in models.iter().enumerate() {
             let p = &model.mesh.positions;
@@ -172,7 +180,11 @@ impl Mesh {
                     Some(c) => Ok(DVec3::new(c[0], c[1], c[2])),
                     None => Err(MeshError::Obj {
                         where_: None,
-                        reason: format!("face refers to vertex {i} of object '{}', which has {}", model.name, p.len() / 3),
+                        reason: format!(
+                            "face refers to vertex {i} of object '{}', which has {}",
+                            model.name,
+                            p.len() / 3
+                        ),
                     }),
                 }
             };
@@ -232,7 +244,10 @@ mod tests {
             Mesh::from_obj_bytes(b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"),
             Err(MeshError::Empty { degenerate: 1 })
         ));
-        assert!(matches!(Mesh::from_obj_bytes(b""), Err(MeshError::Empty { .. })));
+        assert!(matches!(
+            Mesh::from_obj_bytes(b""),
+            Err(MeshError::Empty { .. })
+        ));
         assert!(matches!(
             Mesh::from_obj_bytes(b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
             Err(MeshError::NonFinite { .. }) | Err(MeshError::Obj { .. })

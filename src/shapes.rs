@@ -1,1 +1,156 @@
-//! Meshes built in code: spheres, tori, boxes, thin shells, assemblies.
+//! Meshes built in code: spheres, tori, boxes, thin shells, scattered triangles and assemblies.
+//! Tests, benchmarks and the demo use these, so nothing depends on files being present.
+
+use glam::DVec3;
+
+use crate::mesh::{Mesh, Triangle};
+
+/// A closed UV sphere with `rings` latitude bands and `segments` longitude segments,
+/// outward-facing.
+pub fn sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Vec<Triangle> {
+    let p = |i: u32, j: u32| {
+        let th = std::f64::consts::PI * i as f64 / rings as f64;
+        let ph = std::f64::consts::TAU * (j % segments) as f64 / segments as f64;
+        center + radius * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+    };
+    let mut t = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            if i != 0 {
+                t.push([a, b, d]);
+            }
+            if i + 1 != rings {
+                t.push([b, c, d]);
+            }
+        }
+    }
+    t
+}
+
+/// A closed torus around the z axis: `major` is the distance from the centre to the tube's
+/// centre line, `minor` the tube's radius.
+pub fn torus(center: DVec3, major: f64, minor: f64, n_major: u32, n_minor: u32) -> Vec<Triangle> {
+    let p = |i: u32, j: u32| {
+        let u = std::f64::consts::TAU * (i % n_major) as f64 / n_major as f64;
+        let v = std::f64::consts::TAU * (j % n_minor) as f64 / n_minor as f64;
+        let r = major + minor * v.cos();
+        center + DVec3::new(r * u.cos(), r * u.sin(), minor * v.sin())
+    };
+    let mut t = Vec::new();
+    for i in 0..n_major {
+        for j in 0..n_minor {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            t.push([a, b, c]);
+            t.push([a, c, d]);
+        }
+    }
+    t
+}
+
+/// A closed axis-aligned box, outward-facing, two triangles per face.
+pub fn cuboid(min: DVec3, max: DVec3) -> Vec<Triangle> {
+    let c = |i: usize| {
+        DVec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    faces
+        .iter()
+        .flat_map(|f| [[c(f[0]), c(f[1]), c(f[2])], [c(f[0]), c(f[2]), c(f[3])]])
+        .collect()
+}
+
+/// A closed thin-walled hollow box: the outer box and, facing inward, an inner box `wall`
+/// smaller on every side. The air inside is enclosed by the wall.
+pub fn hollow_box(min: DVec3, max: DVec3, wall: f64) -> Vec<Triangle> {
+    let mut t = cuboid(min, max);
+    let inner = cuboid(min + wall, max - wall);
+    t.extend(inner.into_iter().map(|[a, b, c]| [a, c, b]));
+    t
+}
+
+/// An open hemisphere (z ≥ centre), a surface with a boundary: nothing is enclosed.
+pub fn open_hemisphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Vec<Triangle> {
+    sphere(center, radius, rings * 2, segments)
+        .into_iter()
+        .filter(|t| t.iter().all(|v| v.z >= center.z - 1e-12))
+        .collect()
+}
+
+/// `count` small triangles of edge about `size`, scattered over the box `[0, extent]³` by a
+/// fixed-seed generator: a huge bounding box with little surface.
+pub fn scattered_triangles(count: usize, extent: f64, size: f64, seed: u64) -> Vec<Triangle> {
+    let mut rng = SplitMix(seed);
+    (0..count)
+        .map(|_| {
+            let c = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * extent;
+            let mut d = || DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * size;
+            [c + d(), c + d(), c + d()]
+        })
+        .collect()
+}
+
+/// A multi-part assembly: a sphere, a torus, a box, a thin hollow box and an open sheet, some
+/// touching, some apart. The built-in default model of `vps demo`.
+pub fn demo_assembly() -> Mesh {
+    let mut m = Mesh::default();
+    let parts: Vec<(&str, Vec<Triangle>)> = vec![
+        ("sphere", sphere(DVec3::new(30.0, 30.0, 30.0), 20.0, 48, 96)),
+        (
+            "torus",
+            torus(DVec3::new(85.0, 30.0, 30.0), 20.0, 7.0, 96, 32),
+        ),
+        (
+            "block",
+            cuboid(DVec3::new(20.0, 70.0, 10.0), DVec3::new(60.0, 100.0, 40.0)),
+        ),
+        (
+            "shell",
+            hollow_box(
+                DVec3::new(70.0, 65.0, 5.0),
+                DVec3::new(115.0, 110.0, 50.0),
+                2.0,
+            ),
+        ),
+        (
+            "sheet",
+            open_hemisphere(DVec3::new(60.0, 50.0, 55.0), 15.0, 16, 48),
+        ),
+    ];
+    for (name, tris) in parts {
+        m.push_object(name, tris)
+            .expect("built-in shapes are finite");
+    }
+    m
+}
+
+/// A small deterministic random generator (SplitMix64), enough for test geometry.
+#[derive(Clone, Debug)]
+pub struct SplitMix(pub u64);
+
+impl SplitMix {
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// A uniform number in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}

@@ -1,3 +1,4 @@
 //! Slow, obvious references for the fast paths: dense grids, brute force, exact clipping.
 //! Tests and benchmarks compare the fast paths against these.
+pub mod dense;
 pub mod sat;

@@ -1,1 +1,1222 @@
-//! The `.vxm` file: see `docs/FORMAT.md`.
+//! The `.vxm` file: a voxmap on disk, memory-mapped and read in place (format in
+//! `docs/FORMAT.md`).
+//!
+//! A file is a header, the brick payloads (each compressed on its own), a sorted brick index
+//! and a sorted table of inside runs. Opening maps the file and checks the header, the
+//! layout and the checksums of the two tables, which costs milliseconds whatever the size;
+//! a lookup then binary-searches the mapped index and decompresses only the brick it needs.
+//!
+//! Files are never written in place: [`VoxmapWriter`] writes a temporary file beside the
+//! target and renames it over the target when complete, so a crash leaves either the old
+//! file or the new one, and readers that have the old one mapped keep reading it.
+
+pub mod format;
+mod mmap;
+
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
+use crate::voxmap::{
+    inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS,
+};
+use format::{
+    align8, decode_brick, encode_brick, new_compressor, IndexEntry, RawHeader, RunEntry,
+    CODEC_ZSTD_DELTA, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES,
+    VERSION, VERSION_OFFSET,
+};
+
+/// Errors in reading or writing a `.vxm` file. Each names the file and what is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum StorageError {
+    /// The operating system refused an operation.
+    #[error("cannot {action} {path}: {source}")]
+    Io {
+        /// What was being done, e.g. "open" or "rename temporary file to".
+        action: &'static str,
+        /// The file or directory.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file does not start with the `.vxm` magic bytes.
+    #[error("{path} is not a .vxm file: it starts with {found:02x?}")]
+    BadMagic {
+        /// The file.
+        path: PathBuf,
+        /// Its first bytes.
+        found: Vec<u8>,
+    },
+    /// The file is a `.vxm` of a version this build cannot read.
+    #[error("{path} is .vxm format version {found}; this build reads version {supported}")]
+    UnsupportedVersion {
+        /// The file.
+        path: PathBuf,
+        /// Version in the file.
+        found: u32,
+        /// Version this build reads.
+        supported: u32,
+    },
+    /// The file is shorter than its header says it must be.
+    #[error("{path} is truncated: {actual} bytes, expected {expected}")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Bytes needed.
+        expected: u64,
+        /// Bytes present.
+        actual: u64,
+    },
+    /// The header's checksum does not match its bytes.
+    #[error("{path}: header checksum mismatch (stored {stored:#010x}, computed {computed:#010x})")]
+    HeaderChecksum {
+        /// The file.
+        path: PathBuf,
+        /// CRC stored in the header.
+        stored: u32,
+        /// CRC of the header bytes.
+        computed: u32,
+    },
+    /// The brick index does not match its checksum.
+    #[error("{path}: brick index checksum mismatch")]
+    IndexChecksum {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The inside-run table does not match its checksum.
+    #[error("{path}: inside-run table checksum mismatch")]
+    RunTableChecksum {
+        /// The file.
+        path: PathBuf,
+    },
+    /// One brick's payload does not match its checksum.
+    #[error("{path}: brick {index} (key {key}) checksum mismatch")]
+    BrickChecksum {
+        /// The file.
+        path: PathBuf,
+        /// Position of the brick in the index.
+        index: u64,
+        /// Its key.
+        key: u64,
+    },
+    /// One brick's payload has a good checksum but does not decode to a valid brick.
+    #[error("{path}: brick key {key} does not decompress: {reason}")]
+    Decompress {
+        /// The file.
+        path: PathBuf,
+        /// The brick key.
+        key: u64,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A field or table is inconsistent; `what` names it.
+    #[error("{path} is corrupt: {what}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// Which part is wrong, and how.
+        what: String,
+    },
+    /// The caller gave the writer something a `.vxm` cannot hold.
+    #[error("cannot write {path}: {what}")]
+    InvalidInput {
+        /// The file being written.
+        path: PathBuf,
+        /// What is wrong with the input.
+        what: String,
+    },
+}
+
+/// The header of an open file, in plain types.
+///
+/// The counts are as recorded by the writer; [`VoxmapFile::verify`] recounts them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Header {
+    /// Format version.
+    pub version: u32,
+    /// The grid.
+    pub grid: Grid,
+    /// Layers on each side of the surface.
+    pub layers: u8,
+    /// Voxel and brick counts.
+    pub counts: VoxmapCounts,
+    /// Number of inside runs.
+    pub inside_runs: u64,
+    /// Total compressed bytes of the brick payloads.
+    pub payload_bytes: u64,
+    /// Length of the file.
+    pub file_bytes: u64,
+}
+
+/// One brick read from a file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BrickData {
+    /// A stored brick, decompressed.
+    Stored(Box<BrickValues>),
+    /// A uniform tile: inside or far outside.
+    Tile(i8),
+}
+
+/// What [`VoxmapFile::verify`] checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VerifyReport {
+    /// Counts recomputed from the bricks and runs; equal to the header's.
+    pub counts: VoxmapCounts,
+    /// Bricks decompressed and checked.
+    pub bricks_checked: u64,
+    /// Inside runs checked.
+    pub inside_runs: u64,
+    /// Total compressed bytes of the payloads.
+    pub payload_bytes: u64,
+    /// Length of the file.
+    pub file_bytes: u64,
+}
+
+/// What a write produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WriteReport {
+    /// Length of the file written.
+    pub file_bytes: u64,
+    /// Bytes the stored bricks take uncompressed: 512 per brick.
+    pub uncompressed_bytes: u64,
+    /// Total compressed bytes of the payloads.
+    pub payload_bytes: u64,
+    /// Bricks stored.
+    pub bricks_stored: u64,
+    /// Inside runs written.
+    pub inside_runs: u64,
+    /// Voxel and brick counts, as written in the header.
+    pub counts: VoxmapCounts,
+}
+
+/// The bytes of an open file: a mapping, or an owned copy aligned like one.
+enum Backing {
+    Mapped(memmap2::Mmap),
+    /// `u64` words keep the copy 8-byte aligned, as the in-place table views need.
+    Owned {
+        words: Box<[u64]>,
+        len: usize,
+    },
+}
+
+impl Backing {
+    fn owned(bytes: &[u8]) -> Backing {
+        let mut words = vec![0u64; bytes.len().div_ceil(8)].into_boxed_slice();
+        let dst: &mut [u8] = bytemuck::cast_slice_mut(&mut words);
+        if let Some(d) = dst.get_mut(..bytes.len()) {
+            d.copy_from_slice(bytes);
+        }
+        Backing::Owned {
+            words,
+            len: bytes.len(),
+        }
+    }
+
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Backing::Mapped(m) => m,
+            Backing::Owned { words, len } => {
+                let all: &[u8] = bytemuck::cast_slice(words);
+                all.get(..*len).unwrap_or(all)
+            }
+        }
+    }
+}
+
+/// Where the sections are, as validated byte ranges of the backing.
+#[derive(Clone, Debug)]
+struct Layout {
+    payload: Range<usize>,
+    index: Range<usize>,
+    runs: Range<usize>,
+}
+
+/// An open `.vxm` file. Lookups read the mapping in place and are safe from several
+/// threads at once.
+pub struct VoxmapFile {
+    path: PathBuf,
+    data: Backing,
+    header: Header,
+    brick_count: u64,
+    layout: Layout,
+}
+
+impl std::fmt::Debug for VoxmapFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VoxmapFile")
+            .field("path", &self.path)
+            .field("header", &self.header)
+            .finish_non_exhaustive()
+    }
+}
+
+fn corrupt(path: &Path, what: impl Into<String>) -> StorageError {
+    StorageError::Corrupt {
+        path: path.to_path_buf(),
+        what: what.into(),
+    }
+}
+
+fn to_usize(path: &Path, n: u64, what: &str) -> Result<usize, StorageError> {
+    usize::try_from(n).map_err(|_| corrupt(path, format!("{what} {n} does not fit in memory")))
+}
+
+/// Check that a grid can be addressed by the format; the reader and the writer share this.
+fn check_grid(grid: &Grid) -> Result<(), String> {
+    if !grid.origin.is_finite() {
+        return Err(format!(
+            "grid origin {:?} is not finite",
+            grid.origin.to_array()
+        ));
+    }
+    if !(grid.voxel_size.is_finite() && grid.voxel_size > 0.0) {
+        return Err(format!(
+            "voxel size {} is not a positive finite number",
+            grid.voxel_size
+        ));
+    }
+    for (a, &d) in grid.dims.iter().enumerate() {
+        if d == 0 || d % BRICK != 0 || d as u64 > MAX_DIM {
+            return Err(format!(
+                "grid dimension {a} is {d}: must be a positive multiple of {BRICK} up to {MAX_DIM}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl VoxmapFile {
+    /// Open and map a file, checking its header, layout and table checksums but no brick.
+    pub fn open(path: impl AsRef<Path>) -> Result<VoxmapFile, StorageError> {
+        let path = path.as_ref();
+        let io = |action, source| StorageError::Io {
+            action,
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = File::open(path).map_err(|e| io("open", e))?;
+        let len = file
+            .metadata()
+            .map_err(|e| io("read metadata of", e))?
+            .len();
+        let data = if len < HEADER_BYTES as u64 {
+            // Too short to be valid: read it so the error says exactly why, without mapping
+            // an empty file (which some platforms refuse).
+            Backing::owned(&std::fs::read(path).map_err(|e| io("read", e))?)
+        } else {
+            Backing::Mapped(mmap::map_file(&file).map_err(|e| io("memory-map", e))?)
+        };
+        Self::from_backing(path.to_path_buf(), data)
+    }
+
+    /// Open a file image held in memory (copied, to align it); errors name the file
+    /// `<memory>`. Useful for fuzzing and for files fetched from elsewhere.
+    pub fn from_bytes(bytes: &[u8]) -> Result<VoxmapFile, StorageError> {
+        Self::from_backing(PathBuf::from("<memory>"), Backing::owned(bytes))
+    }
+
+    fn from_backing(path: PathBuf, data: Backing) -> Result<VoxmapFile, StorageError> {
+        let (header, brick_count, layout) = parse(&path, data.bytes())?;
+        Ok(VoxmapFile {
+            path,
+            data,
+            header,
+            brick_count,
+            layout,
+        })
+    }
+
+    /// The file this was opened from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.header.grid
+    }
+
+    /// Layers on each side of the surface.
+    pub fn layers(&self) -> u8 {
+        self.header.layers
+    }
+
+    /// The mapped index and run table. Both were checked to be in bounds and aligned on
+    /// open, so the casts cannot fail; they are still checked rather than trusted.
+    fn tables(&self) -> Result<(&[IndexEntry], &[RunEntry]), StorageError> {
+        let bytes = self.data.bytes();
+        let index = bytes
+            .get(self.layout.index.clone())
+            .and_then(|b| bytemuck::try_cast_slice(b).ok())
+            .ok_or_else(|| corrupt(&self.path, "brick index is out of bounds or misaligned"))?;
+        let runs = bytes
+            .get(self.layout.runs.clone())
+            .and_then(|b| bytemuck::try_cast_slice(b).ok())
+            .ok_or_else(|| {
+                corrupt(
+                    &self.path,
+                    "inside-run table is out of bounds or misaligned",
+                )
+            })?;
+        Ok((index, runs))
+    }
+
+    /// The brick index, sorted by key, read in place.
+    pub fn index(&self) -> Result<&[IndexEntry], StorageError> {
+        Ok(self.tables()?.0)
+    }
+
+    /// The inside runs, sorted and disjoint, read in place.
+    pub fn inside_runs(&self) -> Result<&[RunEntry], StorageError> {
+        Ok(self.tables()?.1)
+    }
+
+    /// Read, check and decompress the brick at position `i` of the index.
+    fn read_entry(&self, i: usize, e: &IndexEntry) -> Result<BrickValues, StorageError> {
+        let payload = self.payload(i, e)?;
+        if crc32fast::hash(payload) != e.crc {
+            return Err(StorageError::BrickChecksum {
+                path: self.path.clone(),
+                index: i as u64,
+                key: e.key,
+            });
+        }
+        decode_brick(payload, self.header.layers).map_err(|reason| StorageError::Decompress {
+            path: self.path.clone(),
+            key: e.key,
+            reason,
+        })
+    }
+
+    /// The payload bytes of entry `i`, checked to lie within the payload section.
+    fn payload(&self, i: usize, e: &IndexEntry) -> Result<&[u8], StorageError> {
+        let bad = || {
+            corrupt(
+                &self.path,
+                format!(
+                    "index entry {i} (key {}): payload at offset {} length {} is outside the payload section {:?}",
+                    e.key, e.offset, e.len, self.layout.payload
+                ),
+            )
+        };
+        let start = usize::try_from(e.offset).map_err(|_| bad())?;
+        let end = start.checked_add(e.len as usize).ok_or_else(bad)?;
+        if start < self.layout.payload.start || end > self.layout.payload.end {
+            return Err(bad());
+        }
+        self.data.bytes().get(start..end).ok_or_else(bad)
+    }
+
+    /// What brick `key` holds. Only a stored brick is decompressed, and its checksum and
+    /// values are checked. A key beyond the grid is a far-outside tile, as in [`Voxmap`].
+    pub fn brick(&self, key: u64) -> Result<BrickData, StorageError> {
+        let (index, runs) = self.tables()?;
+        if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
+            let values = self.read_entry(i, &index[i])?;
+            return Ok(BrickData::Stored(Box::new(values)));
+        }
+        Ok(BrickData::Tile(self.tile_value(runs, key)))
+    }
+
+    fn tile_value(&self, runs: &[RunEntry], key: u64) -> i8 {
+        let i = runs.partition_point(|r| r.end <= key);
+        if runs.get(i).is_some_and(|r| r.start <= key) {
+            inside_value(self.header.layers)
+        } else {
+            outside_value(self.header.layers)
+        }
+    }
+
+    /// The value of voxel `v`; beyond the grid, the far outside value.
+    pub fn value(&self, v: [u32; 3]) -> Result<i8, StorageError> {
+        let grid = &self.header.grid;
+        if (0..3).any(|a| v[a] >= grid.dims[a]) {
+            return Ok(outside_value(self.header.layers));
+        }
+        let (b, local) = split_voxel(v);
+        let key = grid.brick_key(b);
+        let (index, runs) = self.tables()?;
+        match index.binary_search_by_key(&key, |e| e.key) {
+            Ok(i) => {
+                let values = self.read_entry(i, &index[i])?;
+                Ok(values.get(local).copied().unwrap_or(0))
+            }
+            Err(_) => Ok(self.tile_value(runs, key)),
+        }
+    }
+
+    /// The value of the voxel containing world point `p`; beyond the grid, the far outside
+    /// value.
+    pub fn value_at(&self, p: DVec3) -> Result<i8, StorageError> {
+        match self.header.grid.voxel_of(p) {
+            Some(v) => self.value(v),
+            None => Ok(outside_value(self.header.layers)),
+        }
+    }
+
+    /// Check everything: every checksum, every brick's values, the order and range of keys
+    /// and runs, that no key is both stored and in a run, that payloads tile their section,
+    /// and that recounting the voxels gives the header's counts. The error names the first
+    /// bad part.
+    pub fn verify(&self) -> Result<VerifyReport, StorageError> {
+        self.scan(false).map(|(report, _)| report)
+    }
+
+    /// Load the whole file into an in-memory [`Voxmap`], after checking it as
+    /// [`VoxmapFile::verify`] does.
+    pub fn to_voxmap(&self) -> Result<Voxmap, StorageError> {
+        let (_, bricks) = self.scan(true)?;
+        let runs = self
+            .inside_runs()?
+            .iter()
+            .map(|r| KeyRange {
+                start: r.start,
+                end: r.end,
+            })
+            .collect();
+        Ok(Voxmap::from_parts(
+            self.header.grid,
+            self.header.layers,
+            bricks,
+            runs,
+        ))
+    }
+
+    /// The structure checks of `verify`, then every brick decoded in parallel; bricks are
+    /// kept if `keep`.
+    fn scan(&self, keep: bool) -> Result<(VerifyReport, Vec<Brick>), StorageError> {
+        let path = &self.path;
+        let (index, runs) = self.tables()?;
+        let mut next = self.layout.payload.start as u64;
+        let mut prev_key: Option<u64> = None;
+        for (i, e) in index.iter().enumerate() {
+            if e.key >= self.brick_count {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "index entry {i}: key {} is beyond the grid's {} bricks",
+                        e.key, self.brick_count
+                    ),
+                ));
+            }
+            if let Some(p) = prev_key.filter(|&p| p >= e.key) {
+                return Err(corrupt(
+                    path,
+                    format!("index entry {i}: key {} does not follow key {p}", e.key),
+                ));
+            }
+            prev_key = Some(e.key);
+            if e.offset != next {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "index entry {i} (key {}): payload at offset {}, expected {next}",
+                        e.key, e.offset
+                    ),
+                ));
+            }
+            if e.len as usize > MAX_PAYLOAD_BYTES {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "index entry {i} (key {}): payload length {} is too large",
+                        e.key, e.len
+                    ),
+                ));
+            }
+            self.payload(i, e)?;
+            next += e.len as u64;
+        }
+        if next != self.layout.payload.end as u64 {
+            return Err(corrupt(
+                path,
+                format!(
+                    "payload section ends at {}, but the index covers up to {next}",
+                    self.layout.payload.end
+                ),
+            ));
+        }
+        let padding = self
+            .data
+            .bytes()
+            .get(self.layout.payload.end..self.layout.index.start)
+            .unwrap_or_default();
+        if padding.iter().any(|&b| b != 0) {
+            return Err(corrupt(path, "padding before the brick index is not zero"));
+        }
+
+        let mut inside_tile_bricks = 0u64;
+        let mut prev_end = 0u64;
+        for (i, r) in runs.iter().enumerate() {
+            if r.start >= r.end || r.end > self.brick_count {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "inside run {i} [{}, {}) is empty or beyond the grid's {} bricks",
+                        r.start, r.end, self.brick_count
+                    ),
+                ));
+            }
+            if i > 0 && r.start < prev_end {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "inside run {i} [{}, {}) overlaps or precedes the run before it",
+                        r.start, r.end
+                    ),
+                ));
+            }
+            prev_end = r.end;
+            // Runs are disjoint and end within the grid, so the sum stays below brick_count.
+            inside_tile_bricks += r.end - r.start;
+        }
+        let mut j = 0;
+        for (i, e) in index.iter().enumerate() {
+            while runs.get(j).is_some_and(|r| r.end <= e.key) {
+                j += 1;
+            }
+            if let Some(r) = runs.get(j).filter(|r| r.start <= e.key) {
+                return Err(corrupt(
+                    path,
+                    format!(
+                        "index entry {i}: key {} is both stored and in inside run [{}, {})",
+                        e.key, r.start, r.end
+                    ),
+                ));
+            }
+        }
+
+        // Decode in ordered chunks so the first bad brick is the one reported.
+        let chunk_results: Vec<Result<ChunkScan, StorageError>> = index
+            .par_chunks(4096)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let (mut surface, mut inner) = (0u64, 0u64);
+                let mut bricks = Vec::with_capacity(if keep { chunk.len() } else { 0 });
+                for (k, e) in chunk.iter().enumerate() {
+                    let values = self.read_entry(c * 4096 + k, e)?;
+                    for &v in values.iter() {
+                        surface += (v == 0) as u64;
+                        inner += (v > 0) as u64;
+                    }
+                    if keep {
+                        bricks.push(Brick {
+                            key: e.key,
+                            values: Box::new(values),
+                        });
+                    }
+                }
+                Ok(ChunkScan {
+                    surface,
+                    inner,
+                    bricks,
+                })
+            })
+            .collect();
+        let mut counts = VoxmapCounts {
+            bricks_stored: index.len() as u64,
+            inside_tile_bricks,
+            ..Default::default()
+        };
+        let mut bricks = Vec::with_capacity(if keep { index.len() } else { 0 });
+        for r in chunk_results {
+            let chunk = r?;
+            counts.surface_voxels += chunk.surface;
+            counts.inner_voxels += chunk.inner;
+            bricks.extend(chunk.bricks);
+        }
+        counts.inner_voxels = inside_tile_bricks
+            .checked_mul(BRICK_VOXELS as u64)
+            .and_then(|n| n.checked_add(counts.inner_voxels))
+            .ok_or_else(|| corrupt(path, "inner voxel count overflows"))?;
+        let stored = self.header.counts;
+        for (name, have, want) in [
+            (
+                "surface_voxels",
+                stored.surface_voxels,
+                counts.surface_voxels,
+            ),
+            ("inner_voxels", stored.inner_voxels, counts.inner_voxels),
+            ("bricks_stored", stored.bricks_stored, counts.bricks_stored),
+            (
+                "inside_tile_bricks",
+                stored.inside_tile_bricks,
+                counts.inside_tile_bricks,
+            ),
+        ] {
+            if have != want {
+                return Err(corrupt(
+                    path,
+                    format!("header {name} is {have}, but the data hold {want}"),
+                ));
+            }
+        }
+        let report = VerifyReport {
+            counts,
+            bricks_checked: index.len() as u64,
+            inside_runs: runs.len() as u64,
+            payload_bytes: self.header.payload_bytes,
+            file_bytes: self.header.file_bytes,
+        };
+        Ok((report, bricks))
+    }
+}
+
+/// What one chunk of the brick scan found.
+struct ChunkScan {
+    surface: u64,
+    inner: u64,
+    bricks: Vec<Brick>,
+}
+
+/// Validate the header and layout of a file image; touches no payload.
+fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageError> {
+    let len = bytes.len() as u64;
+    let truncated = |expected: u64| StorageError::Truncated {
+        path: path.to_path_buf(),
+        expected,
+        actual: len,
+    };
+    // Magic, then version, before anything else: their positions are the same in every
+    // version, unlike the header checksum's.
+    let magic = bytes
+        .get(..MAGIC.len())
+        .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
+    if magic != MAGIC {
+        return Err(StorageError::BadMagic {
+            path: path.to_path_buf(),
+            found: magic.to_vec(),
+        });
+    }
+    let version = bytes
+        .get(VERSION_OFFSET..VERSION_OFFSET + 4)
+        .and_then(|b| b.try_into().ok())
+        .map(u32::from_le_bytes)
+        .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
+    if version != VERSION {
+        return Err(StorageError::UnsupportedVersion {
+            path: path.to_path_buf(),
+            found: version,
+            supported: VERSION,
+        });
+    }
+    let h: RawHeader = bytes
+        .get(..HEADER_BYTES)
+        .and_then(|b| bytemuck::try_pod_read_unaligned(b).ok())
+        .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
+    let computed = h.compute_crc();
+    if computed != h.header_crc {
+        return Err(StorageError::HeaderChecksum {
+            path: path.to_path_buf(),
+            stored: h.header_crc,
+            computed,
+        });
+    }
+    let bad = |what: String| corrupt(path, format!("header: {what}"));
+    if h.header_bytes as usize != HEADER_BYTES {
+        return Err(bad(format!(
+            "header_bytes is {}, expected {HEADER_BYTES}",
+            h.header_bytes
+        )));
+    }
+    if h.brick_shift as u32 != BRICK_SHIFT || h.brick_edge as u32 != BRICK {
+        return Err(bad(format!(
+            "brick edge {} (shift {}), this build uses {BRICK} (shift {BRICK_SHIFT})",
+            h.brick_edge, h.brick_shift
+        )));
+    }
+    if h.codec != CODEC_ZSTD_DELTA {
+        return Err(bad(format!("unknown codec {}", h.codec)));
+    }
+    if h.layers > MAX_LAYERS {
+        return Err(bad(format!("layers is {}, at most {MAX_LAYERS}", h.layers)));
+    }
+    if h.reserved != [0; 4] || h.reserved2 != 0 {
+        return Err(bad("reserved fields are not zero".into()));
+    }
+    let grid = Grid {
+        origin: DVec3::from_array(h.origin),
+        voxel_size: h.voxel_size,
+        dims: h.dims,
+    };
+    check_grid(&grid).map_err(bad)?;
+    let brick_count = grid.brick_count();
+    if h.bricks_stored > brick_count || h.inside_tile_bricks > brick_count {
+        return Err(bad(format!(
+            "{} stored and {} inside-tile bricks in a grid of {brick_count}",
+            h.bricks_stored, h.inside_tile_bricks
+        )));
+    }
+
+    if len < h.file_bytes {
+        return Err(truncated(h.file_bytes));
+    }
+    if len > h.file_bytes {
+        return Err(bad(format!(
+            "file_bytes is {}, but the file has {len} bytes",
+            h.file_bytes
+        )));
+    }
+    let overflow = |what: &str| bad(format!("{what} overflows"));
+    if h.payload_offset != HEADER_BYTES as u64 {
+        return Err(bad(format!(
+            "payload_offset is {}, expected {HEADER_BYTES}",
+            h.payload_offset
+        )));
+    }
+    let payload_end = h
+        .payload_offset
+        .checked_add(h.payload_bytes)
+        .ok_or_else(|| overflow("payload end"))?;
+    let index_offset = align8(payload_end).ok_or_else(|| overflow("index offset"))?;
+    if h.index_offset != index_offset {
+        return Err(bad(format!(
+            "index_offset is {}, expected {index_offset}",
+            h.index_offset
+        )));
+    }
+    let index_end = h
+        .bricks_stored
+        .checked_mul(INDEX_ENTRY_BYTES as u64)
+        .and_then(|n| n.checked_add(index_offset))
+        .ok_or_else(|| overflow("index end"))?;
+    if h.runs_offset != index_end {
+        return Err(bad(format!(
+            "runs_offset is {}, expected {index_end}",
+            h.runs_offset
+        )));
+    }
+    let runs_end = h
+        .inside_runs
+        .checked_mul(RUN_ENTRY_BYTES as u64)
+        .and_then(|n| n.checked_add(index_end))
+        .ok_or_else(|| overflow("run table end"))?;
+    if runs_end != h.file_bytes {
+        return Err(bad(format!(
+            "sections end at {runs_end}, but file_bytes is {}",
+            h.file_bytes
+        )));
+    }
+    let layout = Layout {
+        payload: to_usize(path, h.payload_offset, "payload offset")?
+            ..to_usize(path, payload_end, "payload end")?,
+        index: to_usize(path, index_offset, "index offset")?
+            ..to_usize(path, index_end, "index end")?,
+        runs: to_usize(path, index_end, "run table offset")?
+            ..to_usize(path, runs_end, "run table end")?,
+    };
+    let index_bytes = bytes
+        .get(layout.index.clone())
+        .ok_or_else(|| truncated(index_end))?;
+    let runs_bytes = bytes
+        .get(layout.runs.clone())
+        .ok_or_else(|| truncated(runs_end))?;
+    if bytemuck::try_cast_slice::<u8, IndexEntry>(index_bytes).is_err() {
+        return Err(corrupt(path, "brick index is misaligned"));
+    }
+    if bytemuck::try_cast_slice::<u8, RunEntry>(runs_bytes).is_err() {
+        return Err(corrupt(path, "inside-run table is misaligned"));
+    }
+    if crc32fast::hash(index_bytes) != h.index_crc {
+        return Err(StorageError::IndexChecksum {
+            path: path.to_path_buf(),
+        });
+    }
+    if crc32fast::hash(runs_bytes) != h.runs_crc {
+        return Err(StorageError::RunTableChecksum {
+            path: path.to_path_buf(),
+        });
+    }
+    let header = Header {
+        version,
+        grid,
+        layers: h.layers,
+        counts: VoxmapCounts {
+            surface_voxels: h.surface_voxels,
+            inner_voxels: h.inner_voxels,
+            bricks_stored: h.bricks_stored,
+            inside_tile_bricks: h.inside_tile_bricks,
+        },
+        inside_runs: h.inside_runs,
+        payload_bytes: h.payload_bytes,
+        file_bytes: h.file_bytes,
+    };
+    Ok((header, brick_count, layout))
+}
+
+/// Bricks compressed per parallel batch: large enough to keep every core busy, small
+/// enough that a batch of payloads stays a few hundred kilobytes.
+const BATCH: usize = 4096;
+
+/// Writes a `.vxm` file as bricks arrive, in increasing key order.
+///
+/// Payloads go straight to a temporary file beside the target; only the index (24 bytes a
+/// brick) and the runs stay in memory until [`VoxmapWriter::finish`] appends them, writes
+/// the header at offset 0, syncs and renames the file into place. Dropping the writer
+/// without finishing, or any error, removes the temporary file and leaves the target as it
+/// was.
+pub struct VoxmapWriter {
+    path: PathBuf,
+    out: Option<BufWriter<tempfile::NamedTempFile>>,
+    grid: Grid,
+    layers: u8,
+    brick_count: u64,
+    pos: u64,
+    index: Vec<IndexEntry>,
+    runs: Vec<RunEntry>,
+    surface_voxels: u64,
+    inner_voxels: u64,
+    compressor: zstd::bulk::Compressor<'static>,
+}
+
+impl std::fmt::Debug for VoxmapWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VoxmapWriter")
+            .field("path", &self.path)
+            .field("bricks", &self.index.len())
+            .field("runs", &self.runs.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl VoxmapWriter {
+    /// Start writing `path` for a voxmap on `grid` with `layers` layers.
+    pub fn create(
+        path: impl AsRef<Path>,
+        grid: Grid,
+        layers: u8,
+    ) -> Result<VoxmapWriter, StorageError> {
+        let path = path.as_ref().to_path_buf();
+        let invalid = |what: String| StorageError::InvalidInput {
+            path: path.clone(),
+            what,
+        };
+        check_grid(&grid).map_err(invalid)?;
+        if layers > MAX_LAYERS {
+            return Err(invalid(format!("layers is {layers}, at most {MAX_LAYERS}")));
+        }
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(".vxm-").suffix(".tmp");
+        #[cfg(unix)]
+        {
+            // A temporary file is private by default; the finished file should be readable
+            // like any other the user creates (the umask still applies).
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o644));
+        }
+        let tmp = builder
+            .tempfile_in(&dir)
+            .map_err(|source| StorageError::Io {
+                action: "create a temporary file in",
+                path: dir.clone(),
+                source,
+            })?;
+        let compressor = new_compressor().map_err(|source| StorageError::Io {
+            action: "set up zstd for",
+            path: path.clone(),
+            source,
+        })?;
+        let mut writer = VoxmapWriter {
+            path,
+            out: Some(BufWriter::with_capacity(1 << 20, tmp)),
+            grid,
+            layers,
+            brick_count: grid.brick_count(),
+            pos: 0,
+            index: Vec::new(),
+            runs: Vec::new(),
+            surface_voxels: 0,
+            inner_voxels: 0,
+            compressor,
+        };
+        // Room for the header, which is written last, once the counts are known.
+        writer.write(&[0u8; HEADER_BYTES])?;
+        Ok(writer)
+    }
+
+    fn invalid(&self, what: String) -> StorageError {
+        StorageError::InvalidInput {
+            path: self.path.clone(),
+            what,
+        }
+    }
+
+    fn io(&self, action: &'static str) -> impl FnOnce(std::io::Error) -> StorageError + '_ {
+        move |source| StorageError::Io {
+            action,
+            path: self.path.clone(),
+            source,
+        }
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> Result<(), StorageError> {
+        let result = match self.out.as_mut() {
+            Some(out) => out.write_all(bytes),
+            None => Err(std::io::Error::other("an earlier write failed")),
+        };
+        if let Err(source) = result {
+            // A failed write leaves the file in an unknown state: refuse to go on.
+            self.out = None;
+            return Err(self.io("write temporary file for")(source));
+        }
+        self.pos += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Check that `key` may come next and `values` are in range, without changing anything.
+    fn check_brick(
+        &self,
+        prev: Option<u64>,
+        key: u64,
+        values: &BrickValues,
+    ) -> Result<(), StorageError> {
+        if key >= self.brick_count {
+            return Err(self.invalid(format!(
+                "brick key {key} is beyond the grid's {} bricks",
+                self.brick_count
+            )));
+        }
+        if let Some(p) = prev.filter(|&p| p >= key) {
+            return Err(self.invalid(format!(
+                "brick key {key} after {p}: keys must strictly increase"
+            )));
+        }
+        let limit = self.layers as i16 + 1;
+        if let Some(i) = values.iter().position(|&v| (v as i16).abs() > limit) {
+            return Err(self.invalid(format!(
+                "brick key {key} voxel {i} has value {} outside [-{limit}, {limit}]",
+                values[i]
+            )));
+        }
+        Ok(())
+    }
+
+    fn push_payload(
+        &mut self,
+        key: u64,
+        payload: &[u8],
+        surface: u64,
+        inner: u64,
+    ) -> Result<(), StorageError> {
+        let entry = IndexEntry {
+            key,
+            offset: self.pos,
+            len: payload.len() as u32,
+            crc: crc32fast::hash(payload),
+        };
+        self.write(payload)?;
+        self.index.push(entry);
+        self.surface_voxels += surface;
+        self.inner_voxels += inner;
+        Ok(())
+    }
+
+    /// Append one brick; keys must strictly increase.
+    pub fn push_brick(&mut self, key: u64, values: &BrickValues) -> Result<(), StorageError> {
+        self.check_brick(self.index.last().map(|e| e.key), key, values)?;
+        let payload =
+            encode_brick(&mut self.compressor, values).map_err(self.io("compress a brick for"))?;
+        let (surface, inner) = tally(values);
+        self.push_payload(key, &payload, surface, inner)
+    }
+
+    /// Append many bricks at once, compressing them in parallel; the file is the same as
+    /// from pushing them one by one.
+    pub fn push_bricks(&mut self, bricks: &[Brick]) -> Result<(), StorageError> {
+        let mut prev = self.index.last().map(|e| e.key);
+        for b in bricks {
+            self.check_brick(prev, b.key, &b.values)?;
+            prev = Some(b.key);
+        }
+        for batch in bricks.chunks(BATCH) {
+            let encoded: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
+                .par_iter()
+                .map_init(new_compressor, |c, b| {
+                    let c = c
+                        .as_mut()
+                        .map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                    let (surface, inner) = tally(&b.values);
+                    Ok((encode_brick(c, &b.values)?, surface, inner))
+                })
+                .collect();
+            for (b, e) in batch.iter().zip(encoded) {
+                let (payload, surface, inner) = e.map_err(self.io("compress a brick for"))?;
+                self.push_payload(b.key, &payload, surface, inner)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Mark the bricks in `range` as inside tiles. Runs must come in increasing order and
+    /// not overlap; an empty run is ignored. They may be interleaved with bricks in any way,
+    /// but no run may hold a stored brick's key (checked by [`VoxmapWriter::finish`]).
+    pub fn push_inside_run(&mut self, range: KeyRange) -> Result<(), StorageError> {
+        if range.start >= range.end {
+            return Ok(());
+        }
+        if range.end > self.brick_count {
+            return Err(self.invalid(format!(
+                "inside run [{}, {}) is beyond the grid's {} bricks",
+                range.start, range.end, self.brick_count
+            )));
+        }
+        if let Some(last) = self.runs.last().filter(|r| r.end > range.start) {
+            return Err(self.invalid(format!(
+                "inside run [{}, {}) does not follow run [{}, {}): runs must be sorted and disjoint",
+                range.start, range.end, last.start, last.end
+            )));
+        }
+        self.runs.push(RunEntry {
+            start: range.start,
+            end: range.end,
+        });
+        Ok(())
+    }
+
+    /// Write the index, runs and header, sync, and rename the file into place.
+    pub fn finish(mut self) -> Result<WriteReport, StorageError> {
+        let mut j = 0;
+        for e in &self.index {
+            while self.runs.get(j).is_some_and(|r| r.end <= e.key) {
+                j += 1;
+            }
+            if let Some(r) = self.runs.get(j).filter(|r| r.start <= e.key) {
+                return Err(self.invalid(format!(
+                    "brick key {} lies in inside run [{}, {})",
+                    e.key, r.start, r.end
+                )));
+            }
+        }
+        // Runs are disjoint and within the grid, so this sum is at most brick_count.
+        let inside_tile_bricks: u64 = self.runs.iter().map(|r| r.end - r.start).sum();
+        let inner_voxels = inside_tile_bricks
+            .checked_mul(BRICK_VOXELS as u64)
+            .and_then(|n| n.checked_add(self.inner_voxels))
+            .ok_or_else(|| self.invalid("inner voxel count overflows 64 bits".into()))?;
+        let counts = VoxmapCounts {
+            surface_voxels: self.surface_voxels,
+            inner_voxels,
+            bricks_stored: self.index.len() as u64,
+            inside_tile_bricks,
+        };
+
+        let payload_bytes = self.pos - HEADER_BYTES as u64;
+        let index_offset = align8(self.pos).unwrap_or(self.pos);
+        let pad = (index_offset - self.pos) as usize;
+        self.write(&[0u8; 8][..pad])?;
+        let index = std::mem::take(&mut self.index);
+        let runs = std::mem::take(&mut self.runs);
+        let index_bytes: &[u8] = bytemuck::cast_slice(&index);
+        let runs_bytes: &[u8] = bytemuck::cast_slice(&runs);
+        self.write(index_bytes)?;
+        let runs_offset = self.pos;
+        self.write(runs_bytes)?;
+
+        let mut h = RawHeader {
+            magic: MAGIC,
+            version: VERSION,
+            header_bytes: HEADER_BYTES as u32,
+            origin: self.grid.origin.to_array(),
+            voxel_size: self.grid.voxel_size,
+            dims: self.grid.dims,
+            brick_shift: BRICK_SHIFT as u8,
+            brick_edge: BRICK as u8,
+            layers: self.layers,
+            codec: CODEC_ZSTD_DELTA,
+            surface_voxels: counts.surface_voxels,
+            inner_voxels: counts.inner_voxels,
+            bricks_stored: counts.bricks_stored,
+            inside_tile_bricks: counts.inside_tile_bricks,
+            inside_runs: runs.len() as u64,
+            payload_offset: HEADER_BYTES as u64,
+            payload_bytes,
+            index_offset,
+            runs_offset,
+            file_bytes: self.pos,
+            index_crc: crc32fast::hash(index_bytes),
+            runs_crc: crc32fast::hash(runs_bytes),
+            reserved: [0; 4],
+            reserved2: 0,
+            header_crc: 0,
+        };
+        h.header_crc = h.compute_crc();
+
+        let out = self
+            .out
+            .take()
+            .ok_or_else(|| self.invalid("an earlier write failed".into()))?;
+        let mut tmp = out
+            .into_inner()
+            .map_err(|e| self.io("write temporary file for")(e.into_error()))?;
+        tmp.seek(SeekFrom::Start(0))
+            .map_err(self.io("seek in temporary file for"))?;
+        tmp.write_all(bytemuck::bytes_of(&h))
+            .map_err(self.io("write header of"))?;
+        tmp.as_file()
+            .sync_all()
+            .map_err(self.io("sync temporary file for"))?;
+        tmp.persist(&self.path).map_err(|e| StorageError::Io {
+            action: "rename temporary file to",
+            path: self.path.clone(),
+            source: e.error,
+        })?;
+        sync_parent(&self.path);
+        Ok(WriteReport {
+            file_bytes: h.file_bytes,
+            uncompressed_bytes: counts.bricks_stored * BRICK_VOXELS as u64,
+            payload_bytes,
+            bricks_stored: counts.bricks_stored,
+            inside_runs: h.inside_runs,
+            counts,
+        })
+    }
+}
+
+/// Surface (value 0) and inner (value > 0) voxels of a brick.
+fn tally(values: &BrickValues) -> (u64, u64) {
+    values.iter().fold((0, 0), |(s, i), &v| {
+        (s + (v == 0) as u64, i + (v > 0) as u64)
+    })
+}
+
+/// Make the rename itself durable. Best effort: some file systems cannot sync a directory,
+/// and the new file is complete either way.
+fn sync_parent(path: &Path) {
+    #[cfg(unix)]
+    if let Some(dir) = path.parent() {
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel.
+pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
+    let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;
+    w.push_bricks(voxmap.bricks())?;
+    for &r in voxmap.inside_runs() {
+        w.push_inside_run(r)?;
+    }
+    w.finish()
+}

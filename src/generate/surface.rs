@@ -1,0 +1,141 @@
+//! Surface voxels: every voxel a triangle touches, found chunk by chunk in parallel.
+//!
+//! Triangles are binned to chunks of `CHUNK_BRICKS³` bricks by the same navigation and SAT test
+//! as voxels, run at chunk scale, so a long thin triangle lands only in the chunks it crosses,
+//! not in every chunk of its bounding box. Each chunk is then voxelized by one thread into a
+//! private dense block of brick masks: no locks, and the result is the same set whatever the
+//! thread count or order.
+
+use rayon::prelude::*;
+
+use super::navigate::{touched_voxels, NavStats, Navigation};
+use crate::geometry::sat::SatTriangle;
+use crate::grid::{local_index, Grid, BRICK, BRICK_SHIFT};
+use crate::voxmap::Mask512;
+
+/// Bricks along each edge of a chunk.
+pub const CHUNK_BRICKS: u32 = 8;
+const CHUNK_VOXELS: u32 = CHUNK_BRICKS * BRICK;
+
+/// The surface of a mesh: bricks holding at least one surface voxel, sorted by key.
+#[derive(Clone, Debug, Default)]
+pub struct SurfaceBricks {
+    /// (brick key, surface voxels of that brick), sorted by key.
+    pub bricks: Vec<(u64, Mask512)>,
+    /// Work done at voxel scale.
+    pub stats: NavStats,
+    /// Chunks that held triangles.
+    pub chunks: usize,
+}
+
+impl SurfaceBricks {
+    /// Number of surface voxels.
+    pub fn voxel_count(&self) -> u64 {
+        self.bricks.iter().map(|(_, m)| m.count() as u64).sum()
+    }
+}
+
+/// Convert world-space triangles to grid units, prepared for SAT tests.
+pub fn to_grid_units(grid: &Grid, triangles: &[crate::mesh::Triangle]) -> Vec<SatTriangle> {
+    triangles
+        .par_iter()
+        .map(|t| SatTriangle::new(t.map(|p| grid.to_grid_units(p))))
+        .collect()
+}
+
+/// Find the surface bricks of triangles given in grid units.
+pub fn mark_surface(grid: &Grid, tris: &[SatTriangle], nav: Navigation) -> SurfaceBricks {
+    let cdims = grid.dims.map(|d| d.div_ceil(CHUNK_VOXELS) as i64);
+    let chunk_key = |c: [i64; 3]| ((c[0] * cdims[1] + c[1]) * cdims[2] + c[2]) as u64;
+    let scale = 1.0 / CHUNK_VOXELS as f64;
+    let clo = [0i64; 3];
+    let chi = cdims.map(|d| d - 1);
+
+    // (chunk, triangle) pairs, sorted so each chunk's triangles are contiguous and in order.
+    let mut pairs: Vec<(u64, u32)> = tris
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, t)| {
+            let mut out = Vec::new();
+            let c0 = t.v[0].map(|x| (x * scale).floor());
+            let single = t.v.iter().all(|p| p.map(|x| (x * scale).floor()) == c0)
+                && t.v
+                    .iter()
+                    .all(|p| p.to_array().iter().all(|&x| (x * scale).fract() != 0.0));
+            if single {
+                out.push((chunk_key([c0.x as i64, c0.y as i64, c0.z as i64]), i as u32));
+            } else {
+                let scaled = SatTriangle::new(t.v.map(|p| p * scale));
+                touched_voxels(
+                    &scaled,
+                    clo,
+                    chi,
+                    Navigation::Auto,
+                    &mut NavStats::default(),
+                    |c| {
+                        out.push((chunk_key(c), i as u32));
+                    },
+                );
+            }
+            out
+        })
+        .collect();
+    pairs.par_sort_unstable();
+
+    let mut groups: Vec<&[(u64, u32)]> = pairs.chunk_by(|a, b| a.0 == b.0).collect();
+    // Big chunks first, so one heavy chunk does not finish alone at the end.
+    groups.sort_by_key(|g| std::cmp::Reverse(g.len()));
+    let chunks = groups.len();
+
+    let per_chunk: Vec<(Vec<(u64, Mask512)>, NavStats)> = groups
+        .par_iter()
+        .map(|g| {
+            let ck = g[0].0;
+            let cz = (ck % cdims[2] as u64) as i64;
+            let cy = ((ck / cdims[2] as u64) % cdims[1] as u64) as i64;
+            let cx = (ck / (cdims[2] * cdims[1]) as u64) as i64;
+            let base = [cx, cy, cz].map(|c| c * CHUNK_VOXELS as i64);
+            let lo = base;
+            let hi =
+                [0, 1, 2].map(|a| (base[a] + CHUNK_VOXELS as i64).min(grid.dims[a] as i64) - 1);
+            let nb = CHUNK_BRICKS as usize;
+            let mut block = vec![Mask512::EMPTY; nb * nb * nb];
+            let mut stats = NavStats::default();
+            for &(_, ti) in g.iter() {
+                touched_voxels(&tris[ti as usize], lo, hi, nav, &mut stats, |v| {
+                    let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
+                    let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
+                    let m = BRICK - 1;
+                    block[(b[0] * nb + b[1]) * nb + b[2]].set(local_index(
+                        l[0] & m,
+                        l[1] & m,
+                        l[2] & m,
+                    ));
+                });
+            }
+            let bbase = base.map(|c| (c as u32) >> BRICK_SHIFT);
+            let mut out = Vec::new();
+            for (i, m) in block.iter().enumerate() {
+                if !m.is_empty() {
+                    let b = [i / (nb * nb), (i / nb) % nb, i % nb];
+                    let key = grid.brick_key([0, 1, 2].map(|a| bbase[a] + b[a] as u32));
+                    out.push((key, *m));
+                }
+            }
+            (out, stats)
+        })
+        .collect();
+
+    let mut stats = NavStats::default();
+    let mut bricks = Vec::with_capacity(per_chunk.iter().map(|c| c.0.len()).sum());
+    for (b, s) in per_chunk {
+        bricks.extend(b);
+        stats += s;
+    }
+    bricks.par_sort_unstable_by_key(|b| b.0);
+    SurfaceBricks {
+        bricks,
+        stats,
+        chunks,
+    }
+}

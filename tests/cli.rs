@@ -1,0 +1,225 @@
+//! The `vps` binary end to end: the commands users script against, bad input, and memory on a
+//! grid of more than 10¹⁰ voxels.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use glam::DVec3;
+use vps::mesh::Triangle;
+use vps::shapes;
+
+fn vps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vps")).args(args).output().expect("run vps")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write_obj(path: &Path, objects: &[(&str, Vec<Triangle>)]) {
+    let mut s = String::new();
+    let mut n = 0;
+    for (name, tris) in objects {
+        s.push_str(&format!("o {name}\n"));
+        for t in tris {
+            for v in t {
+                s.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
+            }
+            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
+            n += 3;
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "vps failed: {}", stderr(o));
+    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    obj: PathBuf,
+    vxm: PathBuf,
+}
+
+/// A sphere of radius 10 at the origin and a box beside it, voxelized at 0.5.
+fn fixture() -> Fixture {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("model.obj");
+    write_obj(
+        &obj,
+        &[
+            ("ball", shapes::sphere(DVec3::ZERO, 10.0, 32, 64)),
+            ("block", shapes::cuboid(DVec3::new(15.0, -5.0, -5.0), DVec3::new(25.0, 5.0, 5.0))),
+        ],
+    );
+    let vxm = dir.path().join("model.vxm");
+    let o = vps(&["voxelize", p(&obj), "--voxel-size", "0.5", "--layers", "4", "-o", p(&vxm)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("surface voxels"));
+    Fixture { _dir: dir, obj, vxm }
+}
+
+#[test]
+fn info_json_has_the_promised_fields() {
+    let f = fixture();
+    let j = json(&vps(&["info", p(&f.vxm), "--json"]));
+    for key in [
+        "voxel_size",
+        "origin",
+        "dims",
+        "layers",
+        "surface_voxels",
+        "inner_voxels",
+        "bricks_stored",
+        "file_bytes",
+        "uncompressed_bytes",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key} in {j}");
+    }
+    assert_eq!(j["voxel_size"], 0.5);
+    assert_eq!(j["layers"], 4);
+    assert!(j["inner_voxels"].as_u64().unwrap() > 0);
+    assert_eq!(j["file_bytes"].as_u64().unwrap(), std::fs::metadata(&f.vxm).unwrap().len());
+    let origin: Vec<f64> = j["origin"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    for o in origin {
+        assert_eq!((o / 0.5).fract(), 0.0, "origin snapped to the voxel size");
+    }
+}
+
+#[test]
+fn probe_prints_one_value_per_point() {
+    let f = fixture();
+    let pts = f.vxm.with_extension("txt");
+    // Centre of the ball, on its surface, just outside, in the block, far away.
+    std::fs::write(&pts, "0 0 0\n10 0 0\n\n# comment\n11.2 0 0\n20 0 0\n1e9 0 0\n").unwrap();
+    let o = vps(&["probe", p(&f.vxm), "--points", p(&pts)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Vec<i32> = stdout(&o).lines().map(|l| l.parse().unwrap()).collect();
+    assert_eq!(v.len(), 5);
+    assert_eq!(v[0], 5, "deep inside is layers + 1");
+    assert_eq!(v[1], 0, "on the surface");
+    assert!(v[2] < 0 && v[2] > -5, "just outside: {}", v[2]);
+    assert_eq!(v[3], 5);
+    assert_eq!(v[4], -5, "beyond the grid is the far outside value");
+
+    std::fs::write(&pts, "1 2\n").unwrap();
+    let o = vps(&["probe", p(&f.vxm), "--points", p(&pts)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("line 1"), "{}", stderr(&o));
+}
+
+#[test]
+fn verify_passes_and_catches_corruption() {
+    let f = fixture();
+    let o = vps(&["verify", p(&f.vxm)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut bytes = std::fs::read(&f.vxm).unwrap();
+    let n = bytes.len();
+    bytes[n / 2] ^= 0x40;
+    let bad = f.vxm.with_extension("bad.vxm");
+    std::fs::write(&bad, &bytes).unwrap();
+    let o = vps(&["verify", p(&bad)]);
+    assert!(!o.status.success());
+    assert!(!stderr(&o).is_empty());
+    std::fs::write(&bad, &bytes[..n / 3]).unwrap();
+    let o = vps(&["info", p(&bad)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).to_lowercase().contains("truncat"), "{}", stderr(&o));
+}
+
+#[test]
+fn slice_writes_a_png() {
+    let f = fixture();
+    let png = f.vxm.with_extension("png");
+    let o = vps(&["slice", p(&f.vxm), "--axis", "z", "--at", "0.1", "-o", p(&png)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    let o = vps(&["slice", p(&f.vxm), "--axis", "x", "--index", "100000", "-o", p(&png)]);
+    assert!(!o.status.success());
+}
+
+#[test]
+fn bad_input_fails_cleanly_without_output() {
+    let f = fixture();
+    let dir = f.obj.parent().unwrap();
+    let out = dir.join("never.vxm");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "0".into()], "voxel-size"),
+        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "-1".into()], "voxel-size"),
+        (vec!["voxelize".into(), dir.join("missing.obj").to_str().unwrap().into(), "--voxel-size".into(), "1".into()], "missing.obj"),
+        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "1".into(), "--layers".into(), "127".into()], "layers"),
+    ];
+    for (mut args, needle) in cases {
+        args.extend(["-o".into(), p(&out).into()]);
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = vps(&a);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+        assert!(!out.exists());
+    }
+    let nan = dir.join("nan.obj");
+    std::fs::write(&nan, "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let empty = dir.join("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let garbage = dir.join("garbage.obj");
+    std::fs::write(&garbage, "v 0 0 0\nf 1 2 7\n").unwrap();
+    for bad in [&nan, &empty, &garbage] {
+        let o = vps(&["voxelize", p(bad), "--voxel-size", "1", "-o", p(&out)]);
+        assert!(!o.status.success(), "{}", bad.display());
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+        assert!(!out.exists());
+    }
+    let o = vps(&["info", p(&f.obj)]);
+    assert!(!o.status.success(), "an OBJ is not a voxmap");
+}
+
+#[test]
+fn open_mesh_warns_that_it_leaks() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("open.obj");
+    write_obj(&obj, &[("cap", shapes::open_hemisphere(DVec3::ZERO, 5.0, 8, 24))]);
+    let out = dir.path().join("open.vxm");
+    let o = vps(&["voxelize", p(&obj), "--voxel-size", "0.25", "-o", p(&out), "--json"]);
+    let j = json(&o);
+    assert_eq!(j["inner_voxels"], 0);
+    assert!(stderr(&o).contains("leaks"), "{}", stderr(&o));
+}
+
+/// A grid of more than 10¹⁰ voxels with little surface voxelizes in well under 1 GiB: memory
+/// follows the stored bricks, not the grid volume.
+#[test]
+fn huge_sparse_grid_stays_small_in_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("scatter.obj");
+    write_obj(&obj, &[("scatter", shapes::scattered_triangles(2000, 2400.0, 4.0, 7))]);
+    let out = dir.path().join("scatter.vxm");
+    let j = json(&vps(&["voxelize", p(&obj), "--voxel-size", "1", "-o", p(&out), "--json"]));
+    let voxels = j["grid_voxels"].as_u64().unwrap();
+    assert!(voxels >= 10_000_000_000, "grid has only {voxels} voxels");
+    let rss = j["peak_rss_bytes"].as_u64().expect("peak RSS is reported on Linux");
+    assert!(rss < 1 << 30, "peak RSS {rss} bytes");
+    let info = json(&vps(&["info", p(&out), "--json"]));
+    assert_eq!(info["grid_voxels"].as_u64().unwrap(), voxels);
+    assert!(info["bricks_stored"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn demo_runs_without_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = vps(&["demo", "--out-dir", p(dir.path()), "--voxel-size", "1.0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path().join("demo.vxm").exists());
+    assert!(dir.path().join("demo_slice.png").exists());
+}

@@ -1,0 +1,531 @@
+//! The `.vxm` file: round trips, corruption of every part, truncation, atomic writes and
+//! readers that outlive a replacement.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use proptest::prelude::*;
+use vps::grid::{local_index, Grid, BRICK_VOXELS};
+use vps::storage::format::{
+    RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
+};
+use vps::storage::{write_voxmap, BrickData, StorageError, VoxmapFile, VoxmapWriter};
+use vps::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap};
+
+/// A layered ball: stored bricks where the layers are, inside runs for the bricks wholly
+/// deep inside, nothing for those far outside.
+fn ball(layers: u8, radius: f64) -> Voxmap {
+    let grid = Grid::around(
+        DVec3::splat(-radius),
+        DVec3::splat(radius),
+        1.0,
+        layers as u32 + 2,
+    )
+    .unwrap();
+    let deep = inside_value(layers);
+    let far = outside_value(layers);
+    let n = grid.brick_dims();
+    let mut bricks = Vec::new();
+    let mut inside: Vec<KeyRange> = Vec::new();
+    for bx in 0..n[0] {
+        for by in 0..n[1] {
+            for bz in 0..n[2] {
+                let key = grid.brick_key([bx, by, bz]);
+                let mut values = Box::new([0i8; BRICK_VOXELS]);
+                for z in 0..8 {
+                    for y in 0..8 {
+                        for x in 0..8 {
+                            let v = [bx * 8 + x, by * 8 + y, bz * 8 + z];
+                            let d = grid.voxel_center(v).length() - radius;
+                            let layer = (-d).round().clamp(far as f64, deep as f64) as i8;
+                            values[local_index(x, y, z)] = layer;
+                        }
+                    }
+                }
+                if values.iter().all(|&v| v == far) {
+                    continue;
+                }
+                if values.iter().all(|&v| v == deep) {
+                    match inside.last_mut() {
+                        Some(r) if r.end == key => r.end += 1,
+                        _ => inside.push(KeyRange {
+                            start: key,
+                            end: key + 1,
+                        }),
+                    }
+                    continue;
+                }
+                bricks.push(Brick { key, values });
+            }
+        }
+    }
+    Voxmap::from_parts(grid, layers, bricks, inside)
+}
+
+fn assert_same(file: &VoxmapFile, vm: &Voxmap) {
+    assert_eq!(file.grid(), vm.grid());
+    assert_eq!(file.layers(), vm.layers());
+    assert_eq!(file.header().counts, vm.counts());
+    let d = vm.grid().dims;
+    for x in 0..d[0] + 2 {
+        for y in 0..d[1] + 2 {
+            for z in 0..d[2] + 2 {
+                let v = [x, y, z];
+                assert_eq!(file.value(v).unwrap(), vm.value(v), "voxel {v:?}");
+            }
+        }
+    }
+    for key in 0..vm.grid().brick_count() + 3 {
+        let want = match vm.brick(key) {
+            vps::voxmap::BrickRef::Stored(v) => BrickData::Stored(Box::new(*v)),
+            vps::voxmap::BrickRef::Tile(t) => BrickData::Tile(t),
+        };
+        assert_eq!(file.brick(key).unwrap(), want, "brick {key}");
+    }
+    assert_eq!(&file.to_voxmap().unwrap(), vm);
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn written(dir: &Path, vm: &Voxmap) -> (PathBuf, Vec<u8>) {
+    let path = dir.join("a.vxm");
+    write_voxmap(&path, vm).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    (path, bytes)
+}
+
+fn header_of(bytes: &[u8]) -> RawHeader {
+    bytemuck::pod_read_unaligned(&bytes[..HEADER_BYTES])
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn round_trip_every_voxel() {
+    let vm = ball(3, 20.0);
+    assert!(vm.bricks().len() > 20 && !vm.inside_runs().is_empty());
+    let dir = tmp();
+    let path = dir.path().join("ball.vxm");
+    let report = write_voxmap(&path, &vm).unwrap();
+    assert_eq!(report.bricks_stored, vm.bricks().len() as u64);
+    assert_eq!(report.uncompressed_bytes, 512 * vm.bricks().len() as u64);
+    assert_eq!(report.counts, vm.counts());
+    assert_eq!(report.file_bytes, std::fs::metadata(&path).unwrap().len());
+    assert!(
+        report.payload_bytes < report.uncompressed_bytes / 4,
+        "{report:?}"
+    );
+
+    let file = VoxmapFile::open(&path).unwrap();
+    assert_eq!(file.header().file_bytes, report.file_bytes);
+    assert_eq!(file.header().inside_runs, vm.inside_runs().len() as u64);
+    assert_same(&file, &vm);
+    let g = vm.grid();
+    for v in [[0, 0, 0], [13, 20, 7], [g.dims[0] - 1, 3, 9]] {
+        let p = g.voxel_center(v);
+        assert_eq!(file.value_at(p).unwrap(), vm.value_at(p));
+    }
+    assert_eq!(file.value_at(DVec3::splat(1e9)).unwrap(), outside_value(3));
+
+    let verified = file.verify().unwrap();
+    assert_eq!(verified.counts, vm.counts());
+    assert_eq!(verified.bricks_checked, vm.bricks().len() as u64);
+    assert_eq!(verified.file_bytes, report.file_bytes);
+    assert_eq!(files_in(dir.path()), ["ball.vxm"]);
+
+    // The same bytes come from memory.
+    let bytes = std::fs::read(&path).unwrap();
+    assert_same(&VoxmapFile::from_bytes(&bytes).unwrap(), &vm);
+}
+
+#[test]
+fn streaming_writer_matches_write_voxmap() {
+    let vm = ball(2, 9.0);
+    let dir = tmp();
+    let (_, whole) = written(dir.path(), &vm);
+    let path = dir.path().join("streamed.vxm");
+    let mut w = VoxmapWriter::create(&path, *vm.grid(), vm.layers()).unwrap();
+    let mut runs = vm.inside_runs().iter();
+    for (i, b) in vm.bricks().iter().enumerate() {
+        w.push_brick(b.key, &b.values).unwrap();
+        if i % 7 == 0 {
+            if let Some(&r) = runs.next() {
+                w.push_inside_run(r).unwrap();
+            }
+        }
+    }
+    for &r in runs {
+        w.push_inside_run(r).unwrap();
+    }
+    let report = w.finish().unwrap();
+    assert_eq!(report.counts, vm.counts());
+    assert_eq!(std::fs::read(&path).unwrap(), whole);
+}
+
+#[test]
+fn empty_and_tile_only_voxmaps() {
+    let grid = Grid::around(DVec3::ZERO, DVec3::splat(20.0), 0.5, 2).unwrap();
+    let dir = tmp();
+    let empty = Voxmap::from_parts(grid, 4, vec![], vec![]);
+    let (path, bytes) = written(dir.path(), &empty);
+    assert_eq!(bytes.len(), HEADER_BYTES);
+    let file = VoxmapFile::open(&path).unwrap();
+    assert_eq!(file.value([1, 2, 3]).unwrap(), outside_value(4));
+    assert_eq!(file.brick(0).unwrap(), BrickData::Tile(outside_value(4)));
+    assert_eq!(file.verify().unwrap().counts, Default::default());
+    assert_eq!(file.to_voxmap().unwrap(), empty);
+
+    let n = grid.brick_count();
+    let tiles = Voxmap::from_parts(
+        grid,
+        4,
+        vec![],
+        vec![
+            KeyRange { start: 0, end: 3 },
+            KeyRange {
+                start: n - 1,
+                end: n,
+            },
+        ],
+    );
+    let (path, _) = written(dir.path(), &tiles);
+    let file = VoxmapFile::open(&path).unwrap();
+    assert_same(&file, &tiles);
+    assert_eq!(file.verify().unwrap().counts.inner_voxels, 4 * 512);
+}
+
+#[test]
+fn flipping_any_byte_is_caught() {
+    let vm = ball(1, 5.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    assert!(good.len() < 20_000, "{}", good.len());
+    for i in 0..good.len() {
+        let mut bad = good.clone();
+        bad[i] ^= 0x10;
+        match VoxmapFile::from_bytes(&bad) {
+            Err(_) => {}
+            Ok(f) => {
+                assert!(f.verify().is_err(), "flip at byte {i} not detected");
+                assert!(f.to_voxmap().is_err(), "flip at byte {i} not detected");
+                // Lookups may fail but must not panic.
+                for key in 0..f.grid().brick_count() {
+                    let _ = f.brick(key);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn corruption_gives_the_specific_error() {
+    let vm = ball(2, 16.0);
+    let dir = tmp();
+    let (path, good) = written(dir.path(), &vm);
+    let h = header_of(&good);
+    assert_eq!(
+        good.len() as u64 - h.runs_offset,
+        h.inside_runs * RUN_ENTRY_BYTES as u64
+    );
+    let write_bad = |bad: &[u8]| {
+        std::fs::write(&path, bad).unwrap();
+        VoxmapFile::open(&path)
+    };
+
+    // Header: a byte of the origin.
+    let mut bad = good.clone();
+    bad[20] ^= 1;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::HeaderChecksum { .. }), "{e}");
+    assert!(e.to_string().contains("a.vxm"), "{e}");
+    assert!(e.to_string().contains("header checksum"), "{e}");
+
+    // Index: a byte of the third entry's offset.
+    let mut bad = good.clone();
+    bad[h.index_offset as usize + 2 * INDEX_ENTRY_BYTES + 9] ^= 4;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::IndexChecksum { .. }), "{e}");
+
+    // Run table.
+    assert!(h.inside_runs > 0);
+    let mut bad = good.clone();
+    bad[h.runs_offset as usize + 1] ^= 1;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::RunTableChecksum { .. }), "{e}");
+
+    // A brick payload: open succeeds, that brick and verify fail, others still read.
+    let entry = 5;
+    let key = vm.bricks()[entry].key;
+    let file = VoxmapFile::from_bytes(&good).unwrap();
+    let e5 = file.index().unwrap()[entry];
+    let mut bad = good.clone();
+    bad[e5.offset as usize + e5.len as usize / 2] ^= 0x40;
+    let file = write_bad(&bad).unwrap();
+    let e = file.brick(key).unwrap_err();
+    assert!(
+        matches!(e, StorageError::BrickChecksum { index: 5, key: k, .. } if k == key),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains(&format!("brick 5 (key {key}) checksum mismatch")),
+        "{e}"
+    );
+    let v = vm.grid().brick_coords(key).map(|c| c * 8);
+    assert!(matches!(
+        file.value(v),
+        Err(StorageError::BrickChecksum { .. })
+    ));
+    let other = vm.bricks()[entry + 1].key;
+    assert!(matches!(file.brick(other), Ok(BrickData::Stored(_))));
+    let e = file.verify().unwrap_err();
+    assert!(
+        matches!(e, StorageError::BrickChecksum { index: 5, .. }),
+        "{e}"
+    );
+    assert!(file.to_voxmap().is_err());
+
+    // Wrong magic.
+    let mut bad = good.clone();
+    bad[..4].copy_from_slice(b"PK\x03\x04");
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::BadMagic { .. }), "{e}");
+    assert!(e.to_string().contains("not a .vxm file"), "{e}");
+
+    // Wrong version with a correct header checksum: only the version is wrong.
+    let mut h2 = h;
+    h2.version = VERSION + 1;
+    h2.header_crc = h2.compute_crc();
+    let mut bad = good.clone();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h2));
+    assert_eq!(
+        u32::from_le_bytes(bad[VERSION_OFFSET..VERSION_OFFSET + 4].try_into().unwrap()),
+        VERSION + 1
+    );
+    let e = write_bad(&bad).unwrap_err();
+    assert!(
+        matches!(e, StorageError::UnsupportedVersion { found, supported, .. } if found == VERSION + 1 && supported == VERSION),
+        "{e}"
+    );
+
+    // A consistent header whose counts lie: open trusts it, verify does not.
+    let mut h3 = h;
+    h3.surface_voxels += 1;
+    h3.header_crc = h3.compute_crc();
+    let mut bad = good.clone();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h3));
+    let file = write_bad(&bad).unwrap();
+    let e = file.verify().unwrap_err();
+    assert!(e.to_string().contains("surface_voxels"), "{e}");
+
+    // Trailing garbage.
+    let mut bad = good.clone();
+    bad.extend_from_slice(&[0; 8]);
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::Corrupt { .. }), "{e}");
+
+    // Not there at all.
+    let e = VoxmapFile::open(dir.path().join("missing.vxm")).unwrap_err();
+    assert!(matches!(e, StorageError::Io { .. }), "{e}");
+    assert!(e.to_string().contains("missing.vxm"), "{e}");
+}
+
+#[test]
+fn truncation_at_every_length() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    let (path, good) = written(dir.path(), &vm);
+    for len in 0..good.len() {
+        let e = VoxmapFile::from_bytes(&good[..len]).unwrap_err();
+        let expected = if len < HEADER_BYTES {
+            HEADER_BYTES as u64
+        } else {
+            good.len() as u64
+        };
+        assert!(
+            matches!(e, StorageError::Truncated { expected: x, actual, .. } if x == expected && actual == len as u64),
+            "length {len}: {e}"
+        );
+    }
+    // Through the file system too, including the empty file.
+    for len in [0, 3, 100, HEADER_BYTES + 1, good.len() - 1] {
+        std::fs::write(&path, &good[..len]).unwrap();
+        let e = VoxmapFile::open(&path).unwrap_err();
+        assert!(matches!(e, StorageError::Truncated { .. }), "{e}");
+    }
+}
+
+#[test]
+fn writer_rejects_bad_input_and_leaves_nothing_behind() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    let (path, good) = written(dir.path(), &vm);
+    let grid = *vm.grid();
+    let b = &vm.bricks()[0];
+
+    let mut w = VoxmapWriter::create(&path, grid, 2).unwrap();
+    w.push_brick(5, &b.values).unwrap();
+    assert!(w.push_brick(5, &b.values).is_err());
+    assert!(w.push_brick(4, &b.values).is_err());
+    assert!(w.push_brick(grid.brick_count(), &b.values).is_err());
+    let mut too_big: BrickValues = *b.values;
+    too_big[17] = 4;
+    let e = w.push_brick(6, &too_big).unwrap_err();
+    assert!(e.to_string().contains("voxel 17"), "{e}");
+    w.push_inside_run(KeyRange { start: 2, end: 5 }).unwrap();
+    assert!(w.push_inside_run(KeyRange { start: 4, end: 8 }).is_err());
+    assert!(w
+        .push_inside_run(KeyRange {
+            start: 9,
+            end: grid.brick_count() + 1
+        })
+        .is_err());
+    w.push_inside_run(KeyRange { start: 5, end: 7 }).unwrap();
+    // Key 5 is stored and in the run [5, 7).
+    let e = w.finish().unwrap_err();
+    assert!(matches!(e, StorageError::InvalidInput { .. }), "{e}");
+    assert_eq!(files_in(dir.path()), ["a.vxm"]);
+    assert_eq!(std::fs::read(&path).unwrap(), good);
+
+    // Abandoned half way: the temporary file goes, the old file stays.
+    let mut w = VoxmapWriter::create(&path, grid, 2).unwrap();
+    w.push_bricks(&vm.bricks()[..3]).unwrap();
+    assert_eq!(files_in(dir.path()).len(), 2);
+    drop(w);
+    assert_eq!(files_in(dir.path()), ["a.vxm"]);
+    assert_eq!(std::fs::read(&path).unwrap(), good);
+
+    assert!(VoxmapWriter::create(&path, grid, 127).is_err());
+    let mut bad_grid = grid;
+    bad_grid.dims[1] = 12;
+    assert!(VoxmapWriter::create(&path, bad_grid, 2).is_err());
+}
+
+#[test]
+fn failed_rename_leaves_old_file_and_no_temp() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    // The target is a non-empty directory: everything is written, then the rename fails.
+    let target = dir.path().join("a.vxm");
+    std::fs::create_dir(&target).unwrap();
+    std::fs::write(target.join("keep"), b"old").unwrap();
+    let e = write_voxmap(&target, &vm).unwrap_err();
+    assert!(
+        matches!(e, StorageError::Io { action, .. } if action.contains("rename")),
+        "{e}"
+    );
+    assert_eq!(files_in(dir.path()), ["a.vxm"]);
+    assert_eq!(std::fs::read(target.join("keep")).unwrap(), b"old");
+
+    // A directory that does not exist: nothing can be created.
+    let e = write_voxmap(dir.path().join("no/such/dir/a.vxm"), &vm).unwrap_err();
+    assert!(matches!(e, StorageError::Io { .. }), "{e}");
+    assert!(e.to_string().contains("no/such/dir"), "{e}");
+}
+
+#[test]
+fn reader_keeps_old_file_across_replacement() {
+    let old = ball(2, 9.0);
+    let new = ball(3, 6.0);
+    let dir = tmp();
+    let path = dir.path().join("live.vxm");
+    write_voxmap(&path, &old).unwrap();
+    let reader = VoxmapFile::open(&path).unwrap();
+    write_voxmap(&path, &new).unwrap();
+    // Touch every brick of the old mapping after the rename.
+    assert_same(&reader, &old);
+    assert!(reader.verify().is_ok());
+    let fresh = VoxmapFile::open(&path).unwrap();
+    assert_same(&fresh, &new);
+    assert_eq!(files_in(dir.path()), ["live.vxm"]);
+}
+
+#[test]
+fn errors_on_garbage_never_panic() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for _ in 0..2000 {
+        let mut bad = good.clone();
+        for _ in 0..1 + next() % 4 {
+            let i = (next() % bad.len() as u64) as usize;
+            bad[i] = next() as u8;
+        }
+        let cut = (next() % (bad.len() as u64 + 1)) as usize;
+        if next() % 4 == 0 {
+            bad.truncate(cut);
+        }
+        if let Ok(f) = VoxmapFile::from_bytes(&bad) {
+            let _ = f.verify();
+            let _ = f.to_voxmap();
+            let _ = f.value([3, 4, 5]);
+        }
+    }
+}
+
+fn random_voxmap() -> impl Strategy<Value = Voxmap> {
+    (0u8..6, 1u32..4, 1u32..3, 1u32..4).prop_flat_map(|(layers, nx, ny, nz)| {
+        let grid = Grid {
+            origin: DVec3::new(-8.0, 0.0, 16.0),
+            voxel_size: 0.5,
+            dims: [nx * 8, ny * 8, nz * 8],
+        };
+        let n = grid.brick_count() as usize;
+        let lim = layers as i8 + 1;
+        (
+            // What each key holds: 0 far outside, 1 inside tile, 2 stored.
+            proptest::collection::vec(0u8..3, n),
+            proptest::collection::vec(proptest::collection::vec(-lim..=lim, BRICK_VOXELS), n),
+        )
+            .prop_map(move |(kinds, values)| {
+                let mut bricks = Vec::new();
+                let mut runs: Vec<KeyRange> = Vec::new();
+                for (key, (kind, vals)) in kinds.iter().zip(values).enumerate() {
+                    let key = key as u64;
+                    match kind {
+                        1 => match runs.last_mut() {
+                            Some(r) if r.end == key => r.end += 1,
+                            _ => runs.push(KeyRange {
+                                start: key,
+                                end: key + 1,
+                            }),
+                        },
+                        2 => bricks.push(Brick {
+                            key,
+                            values: Box::new(vals.try_into().unwrap()),
+                        }),
+                        _ => {}
+                    }
+                }
+                Voxmap::from_parts(grid, layers, bricks, runs)
+            })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    #[test]
+    fn random_round_trip(vm in random_voxmap()) {
+        let dir = tmp();
+        let (path, _) = written(dir.path(), &vm);
+        let file = VoxmapFile::open(&path).unwrap();
+        prop_assert_eq!(file.verify().unwrap().counts, vm.counts());
+        assert_same(&file, &vm);
+    }
+}

@@ -1,0 +1,288 @@
+//! Generation against the slow references: navigation against the whole bounding box, the
+//! sparse fill and layers against a dense grid, and shapes against their analytic inside.
+
+use std::collections::BTreeSet;
+
+use glam::DVec3;
+use proptest::prelude::*;
+use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
+use vps::generate::{surface, voxelize, VoxelizeParams};
+use vps::geometry::sat::SatTriangle;
+use vps::grid::Grid;
+use vps::mesh::{Mesh, Triangle};
+use vps::reference::dense::{dense_surface, dense_voxmap};
+use vps::shapes;
+use vps::voxmap::{inside_value, outside_value, Voxmap};
+
+fn dvec(v: (f64, f64, f64)) -> DVec3 {
+    DVec3::new(v.0, v.1, v.2)
+}
+
+fn arb_triangle(extent: f64) -> impl Strategy<Value = Triangle> {
+    let c = -extent..extent;
+    let p = (c.clone(), c.clone(), c);
+    (p.clone(), p.clone(), p).prop_map(|(a, b, c)| [dvec(a), dvec(b), dvec(c)])
+}
+
+/// Triangles with vertices on a 1/4 lattice: faces, edges and corners of voxels are hit exactly.
+fn arb_lattice_triangle(extent: i32) -> impl Strategy<Value = Triangle> {
+    let c = -4 * extent..4 * extent;
+    let p = (c.clone(), c.clone(), c)
+        .prop_map(|(x, y, z)| DVec3::new(x as f64, y as f64, z as f64) / 4.0);
+    (p.clone(), p.clone(), p).prop_map(|(a, b, c)| [a, b, c])
+}
+
+fn navigate_all(t: &SatTriangle, nav: Navigation) -> (BTreeSet<[i64; 3]>, NavStats) {
+    let mut set = BTreeSet::new();
+    let mut st = NavStats::default();
+    touched_voxels(t, [-64; 3], [64; 3], nav, &mut st, |v| {
+        assert!(set.insert(v), "{v:?} twice");
+    });
+    (set, st)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1500))]
+
+    /// Every navigation finds exactly the voxels of the bounding box that pass the SAT test.
+    #[test]
+    fn navigation_equals_bounding_box(t in arb_triangle(6.0), lattice in arb_lattice_triangle(5)) {
+        for tri in [t, lattice] {
+            if vps::mesh::is_degenerate(&tri) { continue; }
+            let st = SatTriangle::new(tri);
+            let (reference, rs) = navigate_all(&st, Navigation::BoundingBox);
+            for nav in [Navigation::ZRange, Navigation::Narrowing, Navigation::Auto] {
+                let (got, s) = navigate_all(&st, nav);
+                prop_assert_eq!(&got, &reference, "{:?} on {:?}", nav, tri);
+                prop_assert!(s.sat_tests <= rs.sat_tests);
+            }
+        }
+    }
+}
+
+/// The sparse generator, voxel for voxel, against the dense reference.
+fn check_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
+    let params = VoxelizeParams {
+        voxel_size,
+        layers,
+        ..Default::default()
+    };
+    let (vm, report) = voxelize(mesh, &params).unwrap();
+    let grid = *vm.grid();
+    assert!(
+        grid.voxel_count() < 30_000_000,
+        "test grid too big: {:?}",
+        grid.dims
+    );
+    let tris = surface::to_grid_units(&grid, &mesh.triangles);
+    let surf = dense_surface(&grid, &tris);
+    let dense = dense_voxmap(grid.dims, &surf, layers);
+    assert_eq!(
+        report.surface_voxels,
+        surf.iter().filter(|&&s| s).count() as u64
+    );
+    let mut inner = 0u64;
+    for z in 0..grid.dims[2] {
+        for y in 0..grid.dims[1] {
+            for x in 0..grid.dims[0] {
+                let want = dense.get([x, y, z]);
+                let got = vm.value([x, y, z]);
+                assert_eq!(got, want, "voxel {:?} of {:?}", [x, y, z], grid.dims);
+                inner += (want > 0) as u64;
+            }
+        }
+    }
+    assert_eq!(vm.counts().inner_voxels, inner);
+    vm
+}
+
+#[test]
+fn sparse_equals_dense_on_shapes() {
+    let sphere =
+        Mesh::from_triangles("s", shapes::sphere(DVec3::new(1.0, 2.0, 3.0), 9.0, 16, 32)).unwrap();
+    let vm = check_against_dense(&sphere, 0.7, 5);
+    assert!(vm.counts().inner_voxels > 0);
+    check_against_dense(&sphere, 0.7, 0);
+    check_against_dense(&sphere, 0.35, 12);
+
+    let torus = Mesh::from_triangles("t", shapes::torus(DVec3::ZERO, 10.0, 3.5, 48, 16)).unwrap();
+    check_against_dense(&torus, 0.5, 3);
+
+    let shell = Mesh::from_triangles(
+        "h",
+        shapes::hollow_box(DVec3::ZERO, DVec3::new(20.0, 14.0, 9.0), 1.5),
+    )
+    .unwrap();
+    let vm = check_against_dense(&shell, 0.5, 2);
+    // The air inside the shell is enclosed by the walls and filled as inside.
+    assert!(vm.value_at(DVec3::new(10.0, 7.0, 4.5)) > 0);
+
+    let open = Mesh::from_triangles("o", shapes::open_hemisphere(DVec3::ZERO, 8.0, 8, 24)).unwrap();
+    let vm = check_against_dense(&open, 0.5, 4);
+    assert_eq!(
+        vm.counts().inner_voxels,
+        0,
+        "an open surface encloses nothing"
+    );
+
+    // Layers that reach across several bricks.
+    let cube = Mesh::from_triangles("c", shapes::cuboid(DVec3::ZERO, DVec3::splat(30.0))).unwrap();
+    check_against_dense(&cube, 1.0, 20);
+}
+
+#[test]
+fn sparse_equals_dense_on_an_assembly() {
+    let mut mesh = Mesh::default();
+    mesh.push_object("a", shapes::sphere(DVec3::new(5.0, 5.0, 5.0), 4.0, 12, 24))
+        .unwrap();
+    mesh.push_object(
+        "b",
+        shapes::hollow_box(DVec3::new(8.0, 0.0, 0.0), DVec3::new(22.0, 12.0, 11.0), 1.0),
+    )
+    .unwrap();
+    mesh.push_object(
+        "c",
+        shapes::torus(DVec3::new(15.0, 6.0, 5.5), 3.0, 1.2, 24, 12),
+    )
+    .unwrap();
+    check_against_dense(&mesh, 0.4, 4);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(40))]
+
+    /// Random triangle soups, some enclosing, most not: fill and layers match the dense grid.
+    #[test]
+    fn sparse_equals_dense_on_random_soups(
+        tris in prop::collection::vec(arb_triangle(12.0), 1..40),
+        boxes in prop::collection::vec(((-10.0..5.0f64, -10.0..5.0f64, -10.0..5.0f64), 1.0..8.0f64), 0..3),
+        layers in 0u8..10,
+        voxel in 0.3..1.5f64,
+    ) {
+        let mut mesh = Mesh::default();
+        mesh.push_object("soup", tris).unwrap();
+        for (i, (lo, size)) in boxes.into_iter().enumerate() {
+            let lo = dvec(lo);
+            mesh.push_object(&format!("box{i}"), shapes::cuboid(lo, lo + size)).unwrap();
+        }
+        prop_assume!(!mesh.triangles.is_empty());
+        check_against_dense(&mesh, voxel, layers);
+    }
+}
+
+/// Inside and outside of a sphere and a torus, against the analytic answer away from the
+/// surface (a voxel further than its half diagonal plus the tessellation error).
+#[test]
+fn sphere_and_torus_match_analytic_inside() {
+    let (r, s) = (20.0, 0.5);
+    let sphere = Mesh::from_triangles("s", shapes::sphere(DVec3::ZERO, r, 64, 128)).unwrap();
+    let (vm, _) = voxelize(
+        &sphere,
+        &VoxelizeParams {
+            voxel_size: s,
+            layers: 3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let sag = r * (1.0 - (std::f64::consts::PI / 64.0).cos());
+    let margin = s * 3f64.sqrt() / 2.0 + sag;
+    check_analytic(&vm, |p| p.length() - r, margin);
+
+    let (big, small) = (25.0, 8.0);
+    let torus = Mesh::from_triangles("t", shapes::torus(DVec3::ZERO, big, small, 128, 48)).unwrap();
+    let (vm, _) = voxelize(
+        &torus,
+        &VoxelizeParams {
+            voxel_size: s,
+            layers: 3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let sag = (big + small) * (1.0 - (std::f64::consts::PI / 128.0).cos())
+        + small * (1.0 - (std::f64::consts::PI / 48.0).cos());
+    let margin = s * 3f64.sqrt() / 2.0 + sag;
+    check_analytic(
+        &vm,
+        |p| (DVec3::new(p.x, p.y, 0.0).length() - big).hypot(p.z) - small,
+        margin,
+    );
+}
+
+fn check_analytic(vm: &Voxmap, sdf: impl Fn(DVec3) -> f64, margin: f64) {
+    let g = *vm.grid();
+    let (mut inside, mut outside) = (0, 0);
+    for z in 0..g.dims[2] {
+        for y in 0..g.dims[1] {
+            for x in 0..g.dims[0] {
+                let c = g.voxel_center([x, y, z]);
+                let d = sdf(c);
+                let v = vm.value([x, y, z]);
+                if d < -margin {
+                    assert!(v > 0, "voxel {:?} at depth {d} has value {v}", [x, y, z]);
+                    inside += 1;
+                } else if d > margin {
+                    assert!(v < 0, "voxel {:?} at distance {d} has value {v}", [x, y, z]);
+                    outside += 1;
+                }
+                // Layer values bound the distance: |value| voxels of chessboard distance.
+                if v != 0 && v.unsigned_abs() <= vm.layers() {
+                    let lim = (v.unsigned_abs() as f64 + 1.0) * g.voxel_size * 3f64.sqrt() + margin;
+                    assert!(
+                        d.abs() <= lim,
+                        "voxel {:?}: value {v}, distance {d}",
+                        [x, y, z]
+                    );
+                }
+            }
+        }
+    }
+    assert!(inside > 1000 && outside > 1000);
+}
+
+/// The parallel generator gives the same voxmap on one thread and on several.
+#[test]
+fn parallel_equals_single_threaded() {
+    let mesh = shapes::demo_assembly();
+    let params = VoxelizeParams {
+        voxel_size: 0.6,
+        layers: 5,
+        ..Default::default()
+    };
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| voxelize(&mesh, &params).unwrap().0)
+    };
+    let one = run(1);
+    assert!(one.counts().bricks_stored > 100);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(5));
+}
+
+#[test]
+fn values_of_the_demo_are_sane() {
+    let mesh = shapes::demo_assembly();
+    let (vm, report) = voxelize(
+        &mesh,
+        &VoxelizeParams {
+            voxel_size: 1.0,
+            layers: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(!report.leaks);
+    // Centre of the sphere: deep inside. Far corner of the grid: far outside.
+    assert_eq!(vm.value_at(DVec3::new(30.0, 30.0, 30.0)), inside_value(5));
+    assert_eq!(vm.value_at(DVec3::new(-1e6, 0.0, 0.0)), outside_value(5));
+    // The hollow shell's air is enclosed: inside under the paper's scene fill.
+    assert!(vm.value_at(DVec3::new(92.5, 87.5, 27.5)) > 0);
+    // Just outside the block's face at x = 20: first outer layer.
+    assert_eq!(vm.value_at(DVec3::new(19.5 - 0.6, 85.0, 25.0)), -1);
+    let g: Grid = *vm.grid();
+    assert_eq!(g.origin.x % (8.0 * 1.0), 0.0);
+}
