@@ -10,7 +10,11 @@
 //! - [`Navigation::Narrowing`] tests from both ends inwards and marks the voxels between the
 //!   first hits without testing them. That is exact: a triangle meets a column in a convex
 //!   set, so the voxels it touches in a column are contiguous.
-//! - [`Navigation::Auto`] narrows only where the range is long enough for it to save tests.
+//! - [`Navigation::Auto`] narrows only where the range is long enough for it to save tests, and
+//!   needs no test at all in *interior columns*: where the whole pixel lies inside the
+//!   triangle's shadow (with a margin), the triangle meets the column exactly where its plane
+//!   does, so the touched voxels are those meeting `[w_min, w_max]` of the plane over the pixel.
+//!   Only a voxel whose face lies within rounding distance of `w_min` or `w_max` is tested.
 //! - [`Navigation::BoundingBox`] tests every voxel of the bounding box: the slow reference.
 
 use crate::geometry::sat::SatTriangle;
@@ -57,9 +61,23 @@ impl std::ops::AddAssign for NavStats {
 /// The voxels `i` with `[i, i+1]` meeting `[a, b]`, clamped to `[lo, hi]`; empty if `first > last`.
 #[inline]
 fn voxel_span(a: f64, b: f64, lo: i64, hi: i64) -> (i64, i64) {
-    let first = ((a - SLACK).ceil() as i64 - 1).max(lo);
-    let last = ((b + SLACK).floor() as i64).min(hi);
+    let first = (ceil_i64(a - SLACK) - 1).max(lo);
+    let last = floor_i64(b + SLACK).min(hi);
     (first, last)
+}
+
+/// `x.floor()` as an integer, without a libm call on targets lacking a rounding instruction.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((x < t as f64) as i64)
+}
+
+/// `x.ceil()` as an integer.
+#[inline(always)]
+fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t + ((x > t as f64) as i64)
 }
 
 /// Call `mark` for every voxel of the inclusive index box `[lo, hi]` that the triangle (in grid
@@ -109,6 +127,7 @@ pub fn touched_voxels(
     };
     let (u, v) = ((w + 1) % 3, (w + 2) % 3);
     let p = tri.v.map(|p| [p[u], p[v]]);
+    let shadow = Shadow::new(&p);
     // Plane: n·x = d, so w = (d - n_u·u - n_v·v) / n_w.
     let d = n.dot(tri.v[0]);
     let (nu, nv, nw) = (n[u], n[v], n[w]);
@@ -125,10 +144,6 @@ pub fn touched_voxels(
             let z = [at(a, c), at(b, c), at(a, e), at(b, e)];
             let zmin = z[0].min(z[1]).min(z[2]).min(z[3]).max(tmin[w]);
             let zmax = z[0].max(z[1]).max(z[2]).max(z[3]).min(tmax[w]);
-            let (w0, w1) = voxel_span(zmin, zmax, first[w], last[w]);
-            if w0 > w1 {
-                continue;
-            }
             let voxel = |iw: i64| {
                 let mut x = [0i64; 3];
                 x[u] = iu;
@@ -136,6 +151,30 @@ pub fn touched_voxels(
                 x[w] = iw;
                 x
             };
+            let (w0, w1) = voxel_span(zmin, zmax, first[w], last[w]);
+            if w0 > w1 {
+                continue;
+            }
+            if nav == Navigation::Auto && shadow.covers_pixel(a, b, c, e) {
+                for iw in w0..=w1 {
+                    let (lo_face, hi_face) = (iw as f64, iw as f64 + 1.0);
+                    let certain = hi_face >= zmin + SLACK && lo_face <= zmax - SLACK;
+                    let far = hi_face < zmin - SLACK || lo_face > zmax + SLACK;
+                    let hit = if certain {
+                        true
+                    } else if far {
+                        false
+                    } else {
+                        stats.sat_tests += 1;
+                        tri.overlaps_voxel(voxel(iw))
+                    };
+                    if hit {
+                        stats.marked += 1;
+                        mark(voxel(iw));
+                    }
+                }
+                continue;
+            }
             let narrow = match nav {
                 Navigation::Narrowing => true,
                 Navigation::Auto => w1 - w0 + 1 >= AUTO_NARROW_MIN,
@@ -173,6 +212,42 @@ pub fn touched_voxels(
                 }
             }
         }
+    }
+}
+
+/// The triangle's shadow on the `(u, v)` plane, as three edge functions that are positive
+/// inside.
+struct Shadow {
+    /// For each edge: (a, b, c) with `a·u + b·v + c` ≥ 0 inside, scaled to unit normal.
+    edges: [[f64; 3]; 3],
+}
+
+impl Shadow {
+    fn new(p: &[[f64; 2]; 3]) -> Shadow {
+        let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+        let sign = if area >= 0.0 { 1.0 } else { -1.0 };
+        let edges = std::array::from_fn(|k| {
+            let (s, e) = (p[k], p[(k + 1) % 3]);
+            let (a, b) = (-(e[1] - s[1]) * sign, (e[0] - s[0]) * sign);
+            let len = a.hypot(b);
+            if len == 0.0 {
+                // A degenerate shadow covers no pixel.
+                return [0.0, 0.0, -1.0];
+            }
+            [a / len, b / len, -(a * s[0] + b * s[1]) / len]
+        });
+        Shadow { edges }
+    }
+
+    /// Whether the pixel `[a, b] × [c, d]` lies inside the shadow by more than [`SLACK`].
+    #[inline]
+    fn covers_pixel(&self, a: f64, b: f64, c: f64, d: f64) -> bool {
+        self.edges.iter().all(|e| {
+            // The corner that minimises the edge function.
+            let u = if e[0] >= 0.0 { a } else { b };
+            let v = if e[1] >= 0.0 { c } else { d };
+            e[0] * u + e[1] * v + e[2] > SLACK
+        })
     }
 }
 

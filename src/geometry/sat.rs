@@ -132,18 +132,18 @@ mod tests {
     }
 
     #[test]
-    fn separated_by_a_cross_axis_only() {
-        // Near the box's edge, outside it, but bounding boxes and plane overlap.
+    fn near_miss_past_an_edge_of_the_box() {
+        // Bounding boxes overlap; the triangle passes beside the box's edge at x = y = 1.
         let t = SatTriangle::new([
-            DVec3::new(1.6, -0.5, 0.5),
-            DVec3::new(-0.5, 1.6, 0.5),
-            DVec3::new(-0.5, 1.6, 0.6),
+            DVec3::new(2.6, -0.5, 0.5),
+            DVec3::new(-0.5, 2.6, 0.5),
+            DVec3::new(-0.5, 2.6, 0.6),
         ]);
         assert!(!t.overlaps_voxel([0, 0, 0]));
         let t = SatTriangle::new([
-            DVec3::new(1.4, -0.5, 0.5),
-            DVec3::new(-0.5, 1.4, 0.5),
-            DVec3::new(-0.5, 1.4, 0.6),
+            DVec3::new(2.4, -0.5, 0.5),
+            DVec3::new(-0.5, 2.4, 0.5),
+            DVec3::new(-0.5, 2.4, 0.6),
         ]);
         assert!(t.overlaps_voxel([0, 0, 0]));
     }
