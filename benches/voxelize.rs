@@ -6,7 +6,7 @@ use glam::DVec3;
 use std::hint::black_box;
 
 use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
-use vps::generate::surface::{mark_surface, to_grid_units};
+use vps::generate::surface::mark_surface;
 use vps::generate::{voxelize, VoxelizeParams};
 use vps::geometry::sat::SatTriangle;
 use vps::grid::Grid;
@@ -28,7 +28,7 @@ fn sphere_triangles_in_grid_units(span: f64) -> Vec<SatTriangle> {
 fn navigation(c: &mut Criterion) {
     let mut g = c.benchmark_group("navigation");
     g.sample_size(20);
-    for span in [2.0, 8.0, 32.0, 128.0] {
+    for span in [1.0, 2.0, 4.0, 8.0, 32.0, 128.0] {
         let tris = sphere_triangles_in_grid_units(span);
         g.throughput(Throughput::Elements(tris.len() as u64));
         for nav in [Navigation::BoundingBox, Navigation::ZRange, Navigation::Narrowing, Navigation::Auto] {
@@ -54,15 +54,15 @@ fn fill_and_layers(c: &mut Criterion) {
     let mesh = shapes::demo_assembly();
     let (lo, hi) = mesh.bounds();
     let grid = Grid::around(lo, hi, 0.25, 7).unwrap();
-    let tris = to_grid_units(&grid, &mesh.triangles);
-    let surface = mark_surface(&grid, &tris, Navigation::Auto);
+    let tris = &mesh.triangles;
+    let surface = mark_surface(&grid, tris, Navigation::Auto);
     let nb = grid.brick_dims();
     let mut g = c.benchmark_group("fill_and_layers");
     g.sample_size(10);
     g.throughput(Throughput::Elements(surface.bricks.len() as u64));
     g.bench_function("flood_fill", |b| b.iter(|| black_box(Outside::flood(nb, &surface.bricks))));
     g.bench_function("layers_5", |b| b.iter(|| black_box(distance_layers(nb, &surface.bricks, 5))));
-    g.bench_function("surface", |b| b.iter(|| black_box(mark_surface(&grid, &tris, Navigation::Auto))));
+    g.bench_function("surface", |b| b.iter(|| black_box(mark_surface(&grid, tris, Navigation::Auto))));
     g.finish();
 }
 

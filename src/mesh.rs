@@ -172,7 +172,7 @@ impl Mesh {
                 reason: e.to_string(),
             })?;
         let mut mesh = Mesh::default();
-        for (m, model) in models.iter().enumerate() {
+        for (m, model) in models.into_iter().enumerate() {
             let p = &model.mesh.positions;
             let vertex = |i: u32| -> Result<DVec3, MeshError> {
                 let i = i as usize;

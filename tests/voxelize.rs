@@ -286,3 +286,38 @@ fn values_of_the_demo_are_sane() {
     let g: Grid = *vm.grid();
     assert_eq!(g.origin.x % (8.0 * 1.0), 0.0);
 }
+
+/// Big and small triangles crossing many chunk borders (a chunk is 64³ voxels): the chunked
+/// parallel surface equals testing every voxel of every triangle's bounding box.
+#[test]
+fn chunked_surface_equals_dense_surface() {
+    let mut rng = shapes::SplitMix(11);
+    let mut tris: Vec<Triangle> = Vec::new();
+    for i in 0..300 {
+        let size = if i % 3 == 0 { 150.0 } else { 6.0 };
+        let c = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 180.0;
+        let mut d = || DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * size;
+        tris.push([c + d(), c + d(), c + d()]);
+    }
+    // Triangles lying exactly on chunk and brick faces.
+    tris.push([DVec3::new(64.0, 3.0, 5.0), DVec3::new(64.0, 150.0, 7.0), DVec3::new(64.0, 40.0, 170.0)]);
+    tris.push([DVec3::new(2.0, 128.0, 5.0), DVec3::new(190.0, 128.0, 9.0), DVec3::new(70.0, 128.0, 130.0)]);
+    let mesh = Mesh::from_triangles("t", tris).unwrap();
+    let (lo, hi) = mesh.bounds();
+    // Origin at a chunk corner so the faces above fall on chunk borders.
+    let grid = Grid::around(lo.min(DVec3::ZERO), hi, 1.0, 0).unwrap();
+    let got = surface::mark_surface(&grid, &mesh.triangles, Navigation::Auto);
+    let dense = dense_surface(&grid, &surface::to_grid_units(&grid, &mesh.triangles));
+    let mut n = 0u64;
+    for &(key, m) in &got.bricks {
+        let b = grid.brick_coords(key);
+        for i in m.iter() {
+            let v = [0, 1, 2].map(|a| b[a] * 8 + [i % 8, (i / 8) % 8, i / 64][a] as u32);
+            let d = grid.dims;
+            assert!(dense[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize + v[0] as usize], "{v:?} not in the dense surface");
+            n += 1;
+        }
+    }
+    assert_eq!(n, dense.iter().filter(|&&s| s).count() as u64);
+    assert!(got.chunks > 20, "only {} chunks", got.chunks);
+}

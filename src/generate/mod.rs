@@ -111,9 +111,7 @@ pub fn voxelize_with(
 
     phase("surface");
     let t = Instant::now();
-    let tris = surface::to_grid_units(&grid, &mesh.triangles);
-    let surface = surface::mark_surface(&grid, &tris, params.navigation);
-    drop(tris);
+    let surface = surface::mark_surface(&grid, &mesh.triangles, params.navigation);
     report.t_surface = t.elapsed();
     report.nav = surface.stats;
     report.surface_voxels = surface.voxel_count();

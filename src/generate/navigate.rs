@@ -15,6 +15,7 @@
 //!   triangle's shadow (with a margin), the triangle meets the column exactly where its plane
 //!   does, so the touched voxels are those meeting `[w_min, w_max]` of the plane over the pixel.
 //!   Only a voxel whose face lies within rounding distance of `w_min` or `w_max` is tested.
+//!   Bounding boxes of at most [`AUTO_BBOX_MAX`] voxels are simply tested whole.
 //! - [`Navigation::BoundingBox`] tests every voxel of the bounding box: the slow reference.
 
 use crate::geometry::sat::SatTriangle;
@@ -37,6 +38,11 @@ pub enum Navigation {
 /// Narrowing never needs more tests than the whole column; below this length it saves none and
 /// costs branches (see `benches/voxelize.rs`, group `navigation`).
 pub const AUTO_NARROW_MIN: i64 = 3;
+
+/// Bounding boxes of at most this many voxels are tested whole by [`Navigation::Auto`]: for
+/// triangles about a voxel across, setting up columns costs more than the tests it saves
+/// (`benches/voxelize.rs`, group `navigation`, span 1–2).
+pub const AUTO_BBOX_MAX: i64 = 16;
 
 /// Slack added to continuous ranges before rounding them to voxels. Widening only adds
 /// candidates, which the SAT test then rejects: it keeps rounding error from losing a voxel.
@@ -94,15 +100,26 @@ pub fn touched_voxels(
     let mut tmax = [0.0; 3];
     let mut first = [0i64; 3];
     let mut last = [0i64; 3];
+    let mut single = true;
     for a in 0..3 {
         tmin[a] = tri.v[0][a].min(tri.v[1][a]).min(tri.v[2][a]);
         tmax[a] = tri.v[0][a].max(tri.v[1][a]).max(tri.v[2][a]);
-        (first[a], last[a]) = voxel_span(tmin[a], tmax[a], lo[a], hi[a]);
+        let (f, l) = voxel_span(tmin[a], tmax[a], i64::MIN / 2, i64::MAX / 2);
+        single &= f == l;
+        (first[a], last[a]) = (f.max(lo[a]), l.min(hi[a]));
         if first[a] > last[a] {
             return;
         }
     }
-    if nav == Navigation::BoundingBox {
+    if single && nav != Navigation::BoundingBox {
+        // Unclipped rounding leaves a single voxel only when the triangle lies inside it by
+        // more than the slack: it touches that voxel, no test needed.
+        stats.marked += 1;
+        mark(first);
+        return;
+    }
+    let bbox_voxels = (0..3).map(|a| last[a] - first[a] + 1).product::<i64>();
+    if nav == Navigation::BoundingBox || (nav == Navigation::Auto && bbox_voxels <= AUTO_BBOX_MAX) {
         for i in first[0]..=last[0] {
             for j in first[1]..=last[1] {
                 for k in first[2]..=last[2] {

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use super::navigate::{touched_voxels, NavStats, Navigation};
 use crate::geometry::sat::SatTriangle;
 use crate::grid::{local_index, Grid, BRICK, BRICK_SHIFT};
+use crate::mesh::Triangle;
 use crate::voxmap::Mask512;
 
 /// Bricks along each edge of a chunk.
@@ -36,15 +37,22 @@ impl SurfaceBricks {
 }
 
 /// Convert world-space triangles to grid units, prepared for SAT tests.
-pub fn to_grid_units(grid: &Grid, triangles: &[crate::mesh::Triangle]) -> Vec<SatTriangle> {
-    triangles
-        .par_iter()
-        .map(|t| SatTriangle::new(t.map(|p| grid.to_grid_units(p))))
-        .collect()
+pub fn to_grid_units(grid: &Grid, triangles: &[Triangle]) -> Vec<SatTriangle> {
+    triangles.par_iter().map(|t| grid_triangle(grid, t)).collect()
 }
 
-/// Find the surface bricks of triangles given in grid units.
-pub fn mark_surface(grid: &Grid, tris: &[SatTriangle], nav: Navigation) -> SurfaceBricks {
+/// One triangle in grid units, prepared for SAT tests. The same arithmetic everywhere, so
+/// every chunk sees a triangle at exactly the same place.
+#[inline]
+pub fn grid_triangle(grid: &Grid, t: &Triangle) -> SatTriangle {
+    SatTriangle::new(t.map(|p| grid.to_grid_units(p)))
+}
+
+/// Find the surface bricks of world-space triangles.
+///
+/// Triangles are converted to grid units where they are used rather than all at once: a
+/// prepared triangle takes 168 bytes, more than twice the mesh itself.
+pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceBricks {
     let cdims = grid.dims.map(|d| d.div_ceil(CHUNK_VOXELS) as i64);
     let chunk_key = |c: [i64; 3]| ((c[0] * cdims[1] + c[1]) * cdims[2] + c[2]) as u64;
     let scale = 1.0 / CHUNK_VOXELS as f64;
@@ -56,6 +64,7 @@ pub fn mark_surface(grid: &Grid, tris: &[SatTriangle], nav: Navigation) -> Surfa
         .par_iter()
         .enumerate()
         .flat_map_iter(|(i, t)| {
+            let t = grid_triangle(grid, t);
             let mut out = Vec::new();
             let c0 = t.v[0].map(|x| (x * scale).floor());
             let single = t.v.iter().all(|p| p.map(|x| (x * scale).floor()) == c0)
@@ -102,7 +111,7 @@ pub fn mark_surface(grid: &Grid, tris: &[SatTriangle], nav: Navigation) -> Surfa
             let mut block = vec![Mask512::EMPTY; nb * nb * nb];
             let mut stats = NavStats::default();
             for &(_, ti) in g.iter() {
-                touched_voxels(&tris[ti as usize], lo, hi, nav, &mut stats, |v| {
+                touched_voxels(&grid_triangle(grid, &tris[ti as usize]), lo, hi, nav, &mut stats, |v| {
                     let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
                     let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
                     let m = BRICK - 1;
