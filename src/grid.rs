@@ -67,9 +67,9 @@ impl Grid {
         let mut dims = [0u32; 3];
         for a in 0..3 {
             let far = max[a] + pad;
-            let bricks = ((far - origin[a]) / brick_size).floor() as f64 + 1.0;
+            let bricks = ((far - origin[a]) / brick_size).floor() + 1.0;
             let voxels = bricks * BRICK as f64;
-            if !(voxels <= MAX_DIM as f64) {
+            if voxels.is_nan() || voxels > MAX_DIM as f64 {
                 return Err(GridError::TooLarge(voxels.min(u64::MAX as f64) as u64));
             }
             dims[a] = voxels as u32;

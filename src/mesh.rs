@@ -76,7 +76,8 @@ pub fn is_degenerate(t: &Triangle) -> bool {
     let b = t[2] - t[0];
     let n = a.cross(b).length_squared();
     let scale = a.length_squared() * b.length_squared();
-    !(n > scale * 1e-24) || scale == 0.0
+    // NaN compares false, so a NaN normal also counts as degenerate.
+    n.is_nan() || n <= scale * 1e-24 || scale == 0.0
 }
 
 impl Mesh {
@@ -163,7 +164,6 @@ impl Mesh {
             single_index: false,
             ignore_points: true,
             ignore_lines: true,
-            ..Default::default()
         };
         // Materials do not matter for voxelization; a missing .mtl must not fail the load.
         let (models, _) = tobj::load_obj_buf(reader, &options, |_| Ok(Default::default()))

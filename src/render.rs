@@ -21,6 +21,8 @@ pub const MAX_LONG_SIDE: u32 = 4096;
 pub const MIN_CANVAS_WIDTH: u32 = 384;
 /// Height of the legend band under the slice.
 pub const LEGEND_HEIGHT: u32 = 48;
+/// Widest the legend bar gets, in pixels.
+pub const MAX_LEGEND_WIDTH: u32 = 1008;
 
 /// Surface voxels (value 0): yellow, unlike every red and blue around it.
 pub const SURFACE: [u8; 3] = [255, 214, 0];
@@ -242,7 +244,8 @@ fn draw_legend(img: &mut RgbaImage, top: u32, layers: u8) {
     let n = layers as i16;
     let (x0, bar_top, bar_h) = (8u32, top + 8, 18u32);
     let text_top = bar_top + bar_h + 6;
-    let bar_w = img.width - 16;
+    // Beyond this a wider bar only stretches the swatches.
+    let bar_w = (img.width - 16).min(MAX_LEGEND_WIDTH);
 
     // Segments as (width, colour of pixel i within it, label).
     type Paint = Box<dyn Fn(u32) -> [u8; 3]>;
@@ -498,6 +501,10 @@ mod tests {
         assert!(img.width <= MAX_LONG_SIDE);
         assert_eq!(img.rgb(1500, 0), SURFACE);
         assert_eq!(img.rgb(1499, 0), FAR_OUTSIDE);
+        // The legend keeps a readable width instead of stretching across the picture.
+        let bar_row = img.slice_height + 16;
+        assert_eq!(img.rgb(8, bar_row), FAR_OUTSIDE);
+        assert_eq!(img.rgb(8 + MAX_LEGEND_WIDTH + 50, bar_row), BACKGROUND);
     }
 
     #[test]

@@ -476,7 +476,7 @@ fn each_of_the_13_axes_is_needed() {
     // For each axis, a triangle that only it separates from the unit voxel: dropping that axis
     // from the test would report a false hit. Dyadic coordinates keep every projection exact.
     let (center, half) = (DVec3::splat(0.5), DVec3::splat(0.5));
-    let mut rng = SplitMix(0x5eed_0f_13_a7e5);
+    let mut rng = SplitMix(0x5eed_0f13_a7e5);
     let mut found: [Option<Tri>; 13] = [None; 13];
     for _ in 0..2_000_000 {
         if found.iter().all(Option::is_some) {
