@@ -6,6 +6,7 @@
 //! 4. signed values per brick; uniform bricks become tiles.
 
 pub mod navigate;
+pub mod pointshell;
 pub mod surface;
 
 use std::time::{Duration, Instant};
@@ -28,6 +29,9 @@ pub enum GenerateError {
     /// The grid could not be made.
     #[error(transparent)]
     Grid(#[from] GridError),
+    /// A voxmap given for a pointshell does not fit the mesh.
+    #[error("voxmap does not match the mesh: {0}")]
+    VoxmapMismatch(String),
     /// Too many layers.
     #[error("layers must be at most {MAX_LAYERS}, got {0}")]
     TooManyLayers(u32),

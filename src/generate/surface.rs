@@ -48,11 +48,22 @@ pub fn grid_triangle(grid: &Grid, t: &Triangle) -> SatTriangle {
     SatTriangle::new(t.map(|p| grid.to_grid_units(p)))
 }
 
-/// Find the surface bricks of world-space triangles.
+/// A chunk of the grid and the triangles that touch it.
+#[derive(Clone, Copy, Debug)]
+pub struct Chunk<'a> {
+    /// First voxel of the chunk.
+    pub lo: [i64; 3],
+    /// Last voxel of the chunk (inclusive), clipped to the grid.
+    pub hi: [i64; 3],
+    /// Indices of the triangles touching it, increasing.
+    pub triangles: &'a [u32],
+}
+
+/// Bin triangles to the chunks they touch, then run `work` on every chunk in parallel.
 ///
-/// Triangles are converted to grid units where they are used rather than all at once: a
-/// prepared triangle takes 168 bytes, more than twice the mesh itself.
-pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceBricks {
+/// Results come back in chunk order, whatever the thread count; heavy chunks are started
+/// first so that one of them does not finish alone at the end.
+pub fn map_chunks<R: Send>(grid: &Grid, tris: &[Triangle], work: impl Fn(&Chunk) -> R + Sync) -> Vec<R> {
     let cdims = grid.dims.map(|d| d.div_ceil(CHUNK_VOXELS) as i64);
     let chunk_key = |c: [i64; 3]| ((c[0] * cdims[1] + c[1]) * cdims[2] + c[2]) as u64;
     let scale = 1.0 / CHUNK_VOXELS as f64;
@@ -68,72 +79,81 @@ pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceB
             let mut out = Vec::new();
             let c0 = t.v[0].map(|x| (x * scale).floor());
             let single = t.v.iter().all(|p| p.map(|x| (x * scale).floor()) == c0)
-                && t.v
-                    .iter()
-                    .all(|p| p.to_array().iter().all(|&x| (x * scale).fract() != 0.0));
+                && t.v.iter().all(|p| p.to_array().iter().all(|&x| (x * scale).fract() != 0.0));
             if single {
                 out.push((chunk_key([c0.x as i64, c0.y as i64, c0.z as i64]), i as u32));
             } else {
                 let scaled = SatTriangle::new(t.v.map(|p| p * scale));
-                touched_voxels(
-                    &scaled,
-                    clo,
-                    chi,
-                    Navigation::Auto,
-                    &mut NavStats::default(),
-                    |c| {
-                        out.push((chunk_key(c), i as u32));
-                    },
-                );
+                touched_voxels(&scaled, clo, chi, Navigation::Auto, &mut NavStats::default(), |c| {
+                    out.push((chunk_key(c), i as u32));
+                });
             }
             out
         })
         .collect();
     pairs.par_sort_unstable();
+    let keys: Vec<u64> = pairs.iter().map(|p| p.0).collect();
+    let indices: Vec<u32> = pairs.into_iter().map(|p| p.1).collect();
 
-    let mut groups: Vec<&[(u64, u32)]> = pairs.chunk_by(|a, b| a.0 == b.0).collect();
-    // Big chunks first, so one heavy chunk does not finish alone at the end.
-    groups.sort_by_key(|g| std::cmp::Reverse(g.len()));
-    let chunks = groups.len();
+    let mut groups: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
+    let mut start = 0;
+    for i in 1..=keys.len() {
+        if i == keys.len() || keys[i] != keys[start] {
+            groups.push((groups.len(), start..i));
+            start = i;
+        }
+    }
+    let mut by_size = groups.clone();
+    by_size.sort_by_key(|(_, r)| std::cmp::Reverse(r.len()));
 
-    let per_chunk: Vec<(Vec<(u64, Mask512)>, NavStats)> = groups
+    let mut results: Vec<(usize, R)> = by_size
         .par_iter()
-        .map(|g| {
-            let ck = g[0].0;
-            let cz = (ck % cdims[2] as u64) as i64;
-            let cy = ((ck / cdims[2] as u64) % cdims[1] as u64) as i64;
-            let cx = (ck / (cdims[2] * cdims[1]) as u64) as i64;
-            let base = [cx, cy, cz].map(|c| c * CHUNK_VOXELS as i64);
-            let lo = base;
-            let hi =
-                [0, 1, 2].map(|a| (base[a] + CHUNK_VOXELS as i64).min(grid.dims[a] as i64) - 1);
-            let nb = CHUNK_BRICKS as usize;
-            let mut block = vec![Mask512::EMPTY; nb * nb * nb];
-            let mut stats = NavStats::default();
-            for &(_, ti) in g.iter() {
-                touched_voxels(&grid_triangle(grid, &tris[ti as usize]), lo, hi, nav, &mut stats, |v| {
-                    let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
-                    let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
-                    let m = BRICK - 1;
-                    block[(b[0] * nb + b[1]) * nb + b[2]].set(local_index(
-                        l[0] & m,
-                        l[1] & m,
-                        l[2] & m,
-                    ));
-                });
-            }
-            let bbase = base.map(|c| (c as u32) >> BRICK_SHIFT);
-            let mut out = Vec::new();
-            for (i, m) in block.iter().enumerate() {
-                if !m.is_empty() {
-                    let b = [i / (nb * nb), (i / nb) % nb, i % nb];
-                    let key = grid.brick_key([0, 1, 2].map(|a| bbase[a] + b[a] as u32));
-                    out.push((key, *m));
-                }
-            }
-            (out, stats)
+        .map(|(g, r)| {
+            let ck = keys[r.start];
+            let c = [
+                (ck / (cdims[2] * cdims[1]) as u64) as i64,
+                ((ck / cdims[2] as u64) % cdims[1] as u64) as i64,
+                (ck % cdims[2] as u64) as i64,
+            ];
+            let lo = c.map(|c| c * CHUNK_VOXELS as i64);
+            let hi = [0, 1, 2].map(|a| (lo[a] + CHUNK_VOXELS as i64).min(grid.dims[a] as i64) - 1);
+            (*g, work(&Chunk { lo, hi, triangles: &indices[r.clone()] }))
         })
         .collect();
+    results.sort_unstable_by_key(|r| r.0);
+    results.into_iter().map(|r| r.1).collect()
+}
+
+/// Find the surface bricks of world-space triangles.
+///
+/// Triangles are converted to grid units where they are used rather than all at once: a
+/// prepared triangle takes 168 bytes, more than twice the mesh itself.
+pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceBricks {
+    let per_chunk = map_chunks(grid, tris, |chunk| {
+        let base = chunk.lo;
+        let nb = CHUNK_BRICKS as usize;
+        let mut block = vec![Mask512::EMPTY; nb * nb * nb];
+        let mut stats = NavStats::default();
+        for &ti in chunk.triangles {
+            touched_voxels(&grid_triangle(grid, &tris[ti as usize]), chunk.lo, chunk.hi, nav, &mut stats, |v| {
+                let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
+                let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
+                let m = BRICK - 1;
+                block[(b[0] * nb + b[1]) * nb + b[2]].set(local_index(l[0] & m, l[1] & m, l[2] & m));
+            });
+        }
+        let bbase = base.map(|c| (c as u32) >> BRICK_SHIFT);
+        let mut out = Vec::new();
+        for (i, m) in block.iter().enumerate() {
+            if !m.is_empty() {
+                let b = [i / (nb * nb), (i / nb) % nb, i % nb];
+                let key = grid.brick_key([0, 1, 2].map(|a| bbase[a] + b[a] as u32));
+                out.push((key, *m));
+            }
+        }
+        (out, stats)
+    });
+    let chunks = per_chunk.len();
 
     let mut stats = NavStats::default();
     let mut bricks = Vec::with_capacity(per_chunk.iter().map(|c| c.0.len()).sum());

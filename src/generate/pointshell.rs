@@ -1,0 +1,256 @@
+//! Pointshell generation: mesh + voxmap → points, normals and sphere tree
+//! (Sagardia et al. 2008, §4).
+//!
+//! 1. **Projection.** Every surface voxel centre is projected onto the triangles that touch
+//!    the voxel (the same navigation and SAT test as the voxmap, chunk by chunk in parallel)
+//!    by the KKT region analysis of [`crate::geometry::closest`]. Phase 1 keeps projections
+//!    that fall inside a triangle; phase 2 gives the voxels phase 1 left empty their nearest
+//!    edge or vertex projection. Every surface voxel gets exactly one point, no gaps. Where
+//!    several triangles qualify, the nearest wins, then the lowest triangle index: the result
+//!    does not depend on thread count.
+//! 2. **Normals.** The sum of the offsets to the voxels of the 5×5×5 neighbourhood, each
+//!    weighted by its voxmap value, normalised: inner layers are positive, so it points into
+//!    the object. Where the sum is small against its terms (thin sheets, open meshes, whose
+//!    two sides look alike), the normal of the point's triangle is used instead, turned to the
+//!    side the voxmap says is more inside.
+//! 3. **Tree.** A sphere tree over the points; points are reordered so that every node's
+//!    points are contiguous.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::navigate::{touched_voxels, NavStats, Navigation};
+use super::surface::{grid_triangle, map_chunks};
+use super::GenerateError;
+use crate::geometry::closest::{closest_point, Feature};
+use crate::grid::{local_index, split_voxel, Grid, BRICK, BRICK_SHIFT};
+use crate::mesh::Mesh;
+use crate::pointshell::shell::{Pointshell, PointshellStats};
+use crate::pointshell::tree::SphereTree;
+use crate::voxmap::{outside_value, BrickRef, Voxmap};
+
+/// Below this ratio of |Σ v·o| to Σ |v|·|o| the neighbourhood normal is taken as unstable.
+/// On a flat closed surface the ratio is about 0.5–0.8; on a sheet whose two sides are both
+/// outside it is near 0.
+pub const NORMAL_STABILITY: f64 = 0.1;
+
+/// One projected surface voxel.
+#[derive(Clone, Copy, Debug)]
+struct Projected {
+    voxel: [u32; 3],
+    /// The point, in grid units.
+    point: DVec3,
+    triangle: u32,
+    /// 0: inside a triangle (phase 1); 1: on an edge or vertex (phase 2).
+    phase: u8,
+}
+
+/// Work counters of pointshell generation.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PointshellReport {
+    /// Closest-point projections computed.
+    pub projections: u64,
+    /// Navigation work (SAT tests) to find the surface voxels of each triangle.
+    pub nav: NavStats,
+}
+
+/// Make the pointshell of `mesh` from its voxmap, with sphere-tree leaves of at most
+/// `leaf_size` points.
+pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Pointshell, PointshellReport), GenerateError> {
+    let grid = *voxmap.grid();
+    let (lo, hi) = mesh.bounds();
+    let (glo, ghi) = (grid.to_grid_units(lo), grid.to_grid_units(hi));
+    if (0..3).any(|a| glo[a] < 1.0 || ghi[a] > grid.dims[a] as f64 - 1.0) {
+        return Err(GenerateError::VoxmapMismatch(format!(
+            "the mesh (bounds {:?} to {:?}) does not lie inside the voxmap's grid (origin {:?}, {:?} voxels of {})",
+            lo.to_array(),
+            hi.to_array(),
+            grid.origin.to_array(),
+            grid.dims,
+            grid.voxel_size
+        )));
+    }
+    let mut report = PointshellReport::default();
+
+    let per_chunk = map_chunks(&grid, &mesh.triangles, |chunk| {
+        let mut nav = NavStats::default();
+        let mut cands: Vec<(u32, u8, f64, u32, DVec3)> = Vec::new();
+        let span = [0, 1, 2].map(|a| (chunk.hi[a] - chunk.lo[a] + 1) as u32);
+        for &ti in chunk.triangles {
+            let st = grid_triangle(&grid, &mesh.triangles[ti as usize]);
+            touched_voxels(&st, chunk.lo, chunk.hi, Navigation::Auto, &mut nav, |v| {
+                let c = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
+                let cp = closest_point(c, &st.v);
+                let phase = (cp.feature != Feature::Face) as u8;
+                let l = [0, 1, 2].map(|a| (v[a] - chunk.lo[a]) as u32);
+                let idx = (l[2] * span[1] + l[1]) * span[0] + l[0];
+                cands.push((idx, phase, cp.dist_sq, ti, cp.point));
+            });
+        }
+        let projections = cands.len() as u64;
+        cands.sort_unstable_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3)));
+        cands.dedup_by_key(|c| c.0);
+        let out: Vec<Projected> = cands
+            .into_iter()
+            .map(|(idx, phase, _, triangle, point)| {
+                let l = [idx % span[0], (idx / span[0]) % span[1], idx / (span[0] * span[1])];
+                Projected {
+                    voxel: [0, 1, 2].map(|a| chunk.lo[a] as u32 + l[a]),
+                    point,
+                    triangle,
+                    phase,
+                }
+            })
+            .collect();
+        (out, projections, nav)
+    });
+
+    let mut projected = Vec::with_capacity(per_chunk.iter().map(|c| c.0.len()).sum());
+    for (p, n, nav) in per_chunk {
+        projected.extend(p);
+        report.projections += n;
+        report.nav += nav;
+    }
+    // Group by brick, so the normals read each 5×5×5 neighbourhood from one gathered window.
+    let brick_of = |p: &Projected| {
+        let (b, l) = split_voxel(p.voxel);
+        (grid.brick_key(b), l)
+    };
+    projected.par_sort_unstable_by_key(brick_of);
+
+    let mut stats = PointshellStats {
+        interior_points: projected.iter().filter(|p| p.phase == 0).count() as u64,
+        ..Default::default()
+    };
+    stats.boundary_points_recovered = projected.len() as u64 - stats.interior_points;
+
+    let groups: Vec<&[Projected]> = projected.chunk_by(|a, b| brick_of(a).0 == brick_of(b).0).collect();
+    let normals: Vec<(Vec<DVec3>, u64, u64)> = groups
+        .par_iter()
+        .map(|g| {
+            let window = Window::gather(voxmap, split_voxel(g[0].voxel).0);
+            let mut out = Vec::with_capacity(g.len());
+            let (mut fallbacks, mut mismatches) = (0u64, 0u64);
+            for p in g.iter() {
+                let l = p.voxel.map(|c| c & (BRICK - 1));
+                mismatches += (window.get(l, [0, 0, 0]) != 0) as u64;
+                let tri = &mesh.triangles[p.triangle as usize];
+                let (n, fell_back) = window.normal(l, tri);
+                fallbacks += fell_back as u64;
+                out.push(n);
+            }
+            (out, fallbacks, mismatches)
+        })
+        .collect();
+    let mut all_normals = Vec::with_capacity(projected.len());
+    for (n, f, m) in normals {
+        all_normals.extend(n);
+        stats.normal_fallbacks += f;
+        stats.voxmap_mismatches += m;
+    }
+
+    let origin = (lo + hi) * 0.5;
+    let points: Vec<Vec3> = projected
+        .iter()
+        .map(|p| (grid.origin + p.point * grid.voxel_size - origin).as_vec3())
+        .collect();
+    let normals: Vec<Vec3> = all_normals.iter().map(|n| n.as_vec3()).collect();
+    drop(projected);
+    let (tree, order) = SphereTree::build(&points, &normals, leaf_size);
+    let points = order.iter().map(|&i| points[i as usize]).collect();
+    let normals = order.iter().map(|&i| normals[i as usize]).collect();
+    Ok((
+        Pointshell {
+            origin,
+            voxel_size: grid.voxel_size,
+            points,
+            normals,
+            tree,
+            stats,
+        },
+        report,
+    ))
+}
+
+/// The values of a brick and the two voxels around it: the 5×5×5 neighbourhood of each of its
+/// voxels, gathered once.
+struct Window {
+    values: Box<[i8; W * W * W]>,
+    grid: Grid,
+}
+
+const W: usize = BRICK as usize + 4;
+
+impl Window {
+    fn gather(voxmap: &Voxmap, brick: [u32; 3]) -> Window {
+        let grid = *voxmap.grid();
+        let nb = grid.brick_dims();
+        let far = outside_value(voxmap.layers());
+        let mut values = Box::new([far; W * W * W]);
+        let mut refs = [BrickRef::Tile(far); 27];
+        for (i, r) in refs.iter_mut().enumerate() {
+            let d = [i % 3, (i / 3) % 3, i / 9].map(|c| c as i64 - 1);
+            let b = [0, 1, 2].map(|a| brick[a] as i64 + d[a]);
+            if (0..3).all(|a| b[a] >= 0 && b[a] < nb[a] as i64) {
+                *r = voxmap.brick(grid.brick_key(b.map(|c| c as u32)));
+            }
+        }
+        for z in 0..W {
+            for y in 0..W {
+                for x in 0..W {
+                    // Window cell (x, y, z) is local voxel (x - 2, y - 2, z - 2) of the brick.
+                    let g = [x, y, z].map(|c| c as i64 - 2 + BRICK as i64);
+                    let nbi = [0, 1, 2].map(|a| (g[a] >> BRICK_SHIFT) as usize);
+                    let l = [0, 1, 2].map(|a| (g[a] & (BRICK as i64 - 1)) as u32);
+                    values[(z * W + y) * W + x] = match refs[nbi[0] + 3 * nbi[1] + 9 * nbi[2]] {
+                        BrickRef::Stored(v) => v[local_index(l[0], l[1], l[2])],
+                        BrickRef::Tile(t) => t,
+                    };
+                }
+            }
+        }
+        Window { values, grid }
+    }
+
+    /// The value at local voxel `l` of the brick plus offset `o` (each within -2..=2).
+    #[inline]
+    fn get(&self, l: [u32; 3], o: [i32; 3]) -> i8 {
+        let c = [0, 1, 2].map(|a| (l[a] as i32 + 2 + o[a]) as usize);
+        self.values[(c[2] * W + c[1]) * W + c[0]]
+    }
+
+    /// The inward normal at local voxel `l`, and whether the triangle's normal had to be used.
+    fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool) {
+        let mut sum = DVec3::ZERO;
+        let mut scale = 0.0;
+        for z in -2..=2 {
+            for y in -2..=2 {
+                for x in -2..=2 {
+                    let v = self.get(l, [x, y, z]) as f64;
+                    let o = DVec3::new(x as f64, y as f64, z as f64);
+                    sum += v * o;
+                    scale += v.abs() * o.length();
+                }
+            }
+        }
+        let len = sum.length();
+        if len > NORMAL_STABILITY * scale && len > 0.0 {
+            return (sum / len, false);
+        }
+        // Triangle normal, turned towards the side with the larger voxmap values.
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+        let nu = n / self.grid.voxel_size;
+        let mut side = 0.0;
+        for z in -2..=2 {
+            for y in -2..=2 {
+                for x in -2..=2 {
+                    let d = DVec3::new(x as f64, y as f64, z as f64).dot(nu);
+                    side += self.get(l, [x, y, z]) as f64 * d.signum() * (d != 0.0) as u8 as f64;
+                }
+            }
+        }
+        // With no preference (a sheet seen alike from both sides), OBJ winding makes the
+        // triangle normal point out, so its opposite points in.
+        (if side > 0.0 { n } else { -n }, true)
+    }
+}

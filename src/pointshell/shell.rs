@@ -1,0 +1,57 @@
+//! The pointshell of a moving object: one point per surface voxel, each with a unit normal
+//! pointing into the object, ordered so that every sphere-tree node's points are contiguous.
+
+use glam::{DVec3, Vec3};
+
+use super::tree::SphereTree;
+
+/// How the points were obtained.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PointshellStats {
+    /// Points that project into the interior of a triangle (the paper's phase 1).
+    pub interior_points: u64,
+    /// Points recovered from edge and vertex projections for voxels phase 1 left empty
+    /// (phase 2).
+    pub boundary_points_recovered: u64,
+    /// Points whose voxmap neighbourhood gave no stable normal, so the triangle normal,
+    /// oriented by the voxmap, was used.
+    pub normal_fallbacks: u64,
+    /// Surface voxels of the mesh that the voxmap does not hold as surface (0 when the
+    /// voxmap was made from the same mesh and grid).
+    pub voxmap_mismatches: u64,
+}
+
+/// A pointshell in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pointshell {
+    /// Points are stored relative to this position of the object's frame, so `f32` keeps
+    /// sub-voxel precision on models far from their frame's origin.
+    pub origin: DVec3,
+    /// Voxel size the points were sampled at.
+    pub voxel_size: f64,
+    /// Points, relative to `origin`, in tree order.
+    pub points: Vec<Vec3>,
+    /// Unit normals pointing into the object, one per point.
+    pub normals: Vec<Vec3>,
+    /// The sphere tree over the points.
+    pub tree: SphereTree,
+    /// How the points were obtained.
+    pub stats: PointshellStats,
+}
+
+impl Pointshell {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Point `i` in the object's frame.
+    pub fn point(&self, i: usize) -> DVec3 {
+        self.origin + self.points[i].as_dvec3()
+    }
+}

@@ -1,0 +1,151 @@
+//! Pointshell generation: one point per surface voxel, on the mesh, near its voxel centre,
+//! normals pointing in; against brute force and the analytic sphere.
+
+use glam::DVec3;
+use vps::generate::pointshell::pointshell;
+use vps::generate::{voxelize, VoxelizeParams};
+use vps::geometry::closest::closest_point;
+use vps::mesh::Mesh;
+use vps::pointshell::shell::Pointshell;
+use vps::pointshell::tree::LEAF_SIZE;
+use vps::shapes;
+use vps::voxmap::Voxmap;
+
+fn make(mesh: &Mesh, voxel_size: f64) -> (Voxmap, Pointshell) {
+    let params = VoxelizeParams {
+        voxel_size,
+        layers: 5,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(mesh, &params).unwrap();
+    let (ps, _) = pointshell(mesh, &vm, LEAF_SIZE).unwrap();
+    (vm, ps)
+}
+
+/// Brute force: distance from `p` to the nearest triangle of the mesh.
+fn distance_to_mesh(mesh: &Mesh, p: DVec3) -> f64 {
+    mesh.triangles
+        .iter()
+        .map(|t| closest_point(p, t).dist_sq)
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+}
+
+fn check_points(mesh: &Mesh, vm: &Voxmap, ps: &Pointshell) {
+    let s = vm.grid().voxel_size;
+    assert_eq!(ps.len() as u64, vm.counts().surface_voxels, "one point per surface voxel");
+    assert_eq!(
+        ps.stats.interior_points + ps.stats.boundary_points_recovered,
+        ps.len() as u64
+    );
+    assert_eq!(ps.stats.voxmap_mismatches, 0);
+    let g = *vm.grid();
+    for i in 0..ps.len() {
+        let p = ps.point(i);
+        let d = distance_to_mesh(mesh, p);
+        assert!(d <= 1e-4 * s, "point {i} at {p:?} is {d} from the mesh");
+        // Within half a voxel diagonal of some surface voxel's centre.
+        let v = g.voxel_of(p).unwrap();
+        let mut best = f64::INFINITY;
+        for dz in -1i64..=1 {
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let w = [v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz].map(|c| c as u32);
+                    if vm.value(w) == 0 {
+                        best = best.min((g.voxel_center(w) - p).length());
+                    }
+                }
+            }
+        }
+        assert!(best <= 3f64.sqrt() / 2.0 * s * (1.0 + 1e-5), "point {i}: {best} from any surface voxel centre");
+        let n = ps.normals[i];
+        assert!((n.length() - 1.0).abs() < 1e-5, "normal {i} is not unit: {n:?}");
+    }
+}
+
+#[test]
+fn sphere_points_are_on_the_mesh_with_inward_normals() {
+    let c = DVec3::new(3.0, -2.0, 5.0);
+    let r = 10.0;
+    let mesh = Mesh::from_triangles("s", shapes::sphere(c, r, 24, 48)).unwrap();
+    let (vm, ps) = make(&mesh, 0.5);
+    check_points(&mesh, &vm, &ps);
+    // Normals point to the centre within a few degrees.
+    let mut worst = 0.0f64;
+    let mut sum = 0.0;
+    for i in 0..ps.len() {
+        let to_centre = (c - ps.point(i)).normalize();
+        let angle = ps.normals[i].as_dvec3().dot(to_centre).clamp(-1.0, 1.0).acos().to_degrees();
+        worst = worst.max(angle);
+        sum += angle;
+    }
+    let mean = sum / ps.len() as f64;
+    eprintln!("sphere normals: mean {mean:.2}°, worst {worst:.2}° over {} points", ps.len());
+    assert!(mean < 4.0, "mean angle {mean}");
+    assert!(worst < 15.0, "worst angle {worst}");
+    assert_eq!(ps.stats.normal_fallbacks, 0);
+    assert!(ps.stats.boundary_points_recovered > 0 && ps.stats.boundary_points_recovered < ps.len() as u64 / 4);
+}
+
+#[test]
+fn torus_box_and_assembly_cover_every_surface_voxel() {
+    let mut mesh = Mesh::default();
+    mesh.push_object("t", shapes::torus(DVec3::ZERO, 8.0, 3.0, 48, 16)).unwrap();
+    mesh.push_object("b", shapes::cuboid(DVec3::new(12.0, -3.0, -3.0), DVec3::new(18.0, 3.0, 3.0))).unwrap();
+    let (vm, ps) = make(&mesh, 0.4);
+    check_points(&mesh, &vm, &ps);
+}
+
+#[test]
+fn open_sheets_fall_back_to_oriented_triangle_normals() {
+    let mesh = Mesh::from_triangles("cap", shapes::open_hemisphere(DVec3::ZERO, 6.0, 8, 24)).unwrap();
+    let (vm, ps) = make(&mesh, 0.3);
+    check_points(&mesh, &vm, &ps);
+    assert!(ps.stats.normal_fallbacks > 0, "an open sheet has no inside to point to");
+    assert!(ps.normals.iter().all(|n| n.is_finite()));
+}
+
+#[test]
+fn box_normals_are_axis_aligned_away_from_edges() {
+    let mesh = Mesh::from_triangles("b", shapes::cuboid(DVec3::ZERO, DVec3::new(20.0, 16.0, 6.0))).unwrap();
+    let (_, ps) = make(&mesh, 0.5);
+    let centre = DVec3::new(10.0, 8.0, 3.0);
+    let mut checked = 0;
+    for i in 0..ps.len() {
+        let p = ps.point(i);
+        // Points on the top face, further from its edges than the layers and the 5×5×5
+        // neighbourhood reach (5 + 2 voxels): there the voxmap is a flat slab.
+        if (p.z - 6.0).abs() < 1e-9 && p.x > 4.0 && p.x < 16.0 && p.y > 4.0 && p.y < 12.0 {
+            let n = ps.normals[i].as_dvec3();
+            assert!(n.dot(DVec3::NEG_Z) > 0.999, "normal {n:?} at {p:?}");
+            checked += 1;
+        }
+        // Every normal points into the box's half-space of its face.
+        assert!(ps.normals[i].as_dvec3().dot(centre - p) > 0.0);
+    }
+    assert!(checked > 50);
+}
+
+#[test]
+fn same_pointshell_on_any_thread_count() {
+    let mesh = shapes::demo_assembly();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams { voxel_size: 1.0, ..Default::default() }).unwrap();
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| pointshell(&mesh, &vm, LEAF_SIZE).unwrap().0)
+    };
+    let one = run(1);
+    assert_eq!(one.len() as u64, vm.counts().surface_voxels);
+    assert_eq!(one, run(3));
+}
+
+#[test]
+fn a_voxmap_of_another_mesh_is_refused() {
+    let small = Mesh::from_triangles("s", shapes::sphere(DVec3::ZERO, 2.0, 8, 16)).unwrap();
+    let big = Mesh::from_triangles("b", shapes::sphere(DVec3::ZERO, 50.0, 8, 16)).unwrap();
+    let (vm, _) = voxelize(&small, &VoxelizeParams { voxel_size: 0.5, ..Default::default() }).unwrap();
+    assert!(pointshell(&big, &vm, LEAF_SIZE).is_err());
+}
