@@ -18,8 +18,7 @@ fn bumpy(layers: u8, radius: f64) -> Voxmap {
     let grid = Grid::around(DVec3::splat(-r), DVec3::splat(r), 1.0, pad).unwrap();
     let sdf = |p: DVec3| {
         let ball = p.length() - radius - 3.0 * (p.x * 0.11).sin() * (p.y * 0.07).cos();
-        let q = (p - DVec3::new(0.0, radius * 0.8, 0.0)).abs()
-            - DVec3::new(radius * 1.1, radius * 0.15, radius * 0.6);
+        let q = (p - DVec3::new(0.0, radius * 0.8, 0.0)).abs() - DVec3::new(radius * 1.1, radius * 0.15, radius * 0.6);
         let slab = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
         ball.min(slab)
     };
@@ -91,9 +90,7 @@ fn lookup(c: &mut Criterion) {
         t.elapsed().as_secs_f64() * 1e3
     );
 
-    c.bench_function("open", |b| {
-        b.iter(|| VoxmapFile::open(black_box(&path)).unwrap())
-    });
+    c.bench_function("open", |b| b.iter(|| VoxmapFile::open(black_box(&path)).unwrap()));
 
     let file = VoxmapFile::open(&path).unwrap();
     let grid = *vm.grid();

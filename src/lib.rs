@@ -16,6 +16,7 @@ pub mod generate;
 pub mod geometry;
 pub mod grid;
 pub mod mesh;
+pub mod pointshell;
 pub mod reference;
 pub mod render;
 pub mod shapes;

@@ -12,6 +12,7 @@ use serde_json::json;
 
 use vps::generate::{voxelize_with, Navigation, VoxelizeParams, VoxelizeReport};
 use vps::mesh::Mesh;
+use vps::storage::pointshell::{write_ply, write_pointshell, PointshellFile, PS_MAGIC};
 use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
 use vps::voxmap::Voxmap;
 
@@ -74,7 +75,38 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Describe a .vxm file: grid, counts, bricks, bytes.
+    /// Make the pointshell of a mesh (.vps): one point per surface voxel, inward normals, sphere tree.
+    Pointshell {
+        /// The mesh.
+        mesh: PathBuf,
+        /// Voxel edge length, in the mesh's units.
+        #[arg(long)]
+        voxel_size: f64,
+        /// Output file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Reuse this voxmap of the same mesh instead of making one.
+        #[arg(long)]
+        voxmap: Option<PathBuf>,
+        /// Layers of the voxmap made for the normals (when --voxmap is not given).
+        #[arg(long, default_value_t = 5)]
+        layers: u32,
+        /// Largest number of points in a sphere-tree leaf.
+        #[arg(long, default_value_t = vps::pointshell::tree::LEAF_SIZE)]
+        leaf_size: usize,
+        /// Print the summary as one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Export a pointshell's points with normals as a PLY file.
+    Export {
+        /// The .vps file.
+        file: PathBuf,
+        /// Output PLY (binary, x y z nx ny nz).
+        #[arg(long)]
+        ply: PathBuf,
+    },
+    /// Describe a .vxm or .vps file.
     Info {
         /// The file.
         file: PathBuf,
@@ -174,7 +206,28 @@ fn run(cli: Cli) -> Result<()> {
             print_voxelize_summary(&output, &vm, &report, &write, secs, json);
             Ok(())
         }
-        Command::Info { file, json } => info(&file, json),
+        Command::Pointshell {
+            mesh,
+            voxel_size,
+            output,
+            voxmap,
+            layers,
+            leaf_size,
+            json,
+        } => make_pointshell(&mesh, voxel_size, &output, voxmap.as_deref(), layers, leaf_size, json),
+        Command::Export { file, ply } => {
+            let f = open_pointshell(&file)?;
+            let bytes = write_ply(&ply, f.header().origin, f.points(), f.normals())?;
+            println!("wrote {} ({} points, {bytes} bytes)", ply.display(), f.points().len());
+            Ok(())
+        }
+        Command::Info { file, json } => {
+            if is_pointshell(&file) {
+                pointshell_info(&file, json)
+            } else {
+                info(&file, json)
+            }
+        }
         Command::Probe { file, points } => probe(&file, &points),
         Command::Verify { file } => {
             let f = open(&file)?;
@@ -648,4 +701,127 @@ fn peak_rss_bytes() -> Option<u64> {
 /// Reset the peak RSS counter (Linux: writing 5 to `clear_refs`), so each bench run has its own.
 fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+fn is_pointshell(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == PS_MAGIC
+}
+
+fn open_pointshell(path: &Path) -> Result<PointshellFile> {
+    PointshellFile::open(path).with_context(|| format!("cannot open pointshell {}", path.display()))
+}
+
+fn make_pointshell(
+    mesh_path: &Path,
+    voxel_size: f64,
+    output: &Path,
+    voxmap: Option<&Path>,
+    layers: u32,
+    leaf_size: usize,
+    json: bool,
+) -> Result<()> {
+    let params = params(voxel_size, layers, Navigation::Auto)?;
+    if leaf_size == 0 {
+        bail!("--leaf-size must be at least 1");
+    }
+    let mesh = load_mesh(mesh_path)?;
+    let start = Instant::now();
+    let pb = spinner("pointshell: voxmap");
+    let vm = match voxmap {
+        Some(p) => {
+            let vm = open(p)?.to_voxmap().with_context(|| format!("reading {}", p.display()))?;
+            if (vm.grid().voxel_size - voxel_size).abs() > 1e-12 * voxel_size {
+                bail!(
+                    "{} has voxel size {}, not the --voxel-size {voxel_size} asked for",
+                    p.display(),
+                    vm.grid().voxel_size
+                );
+            }
+            vm
+        }
+        None => voxelize_with(&mesh, &params, &|_| {})?.0,
+    };
+    let t_voxmap = start.elapsed().as_secs_f64();
+    pb.set_message("pointshell: projecting, normals, tree");
+    let t = Instant::now();
+    let (shell, report) = vps::generate::pointshell::pointshell(&mesh, &vm, leaf_size)?;
+    let t_shell = t.elapsed().as_secs_f64();
+    pb.set_message(format!("writing {}", output.display()));
+    let bytes = write_pointshell(output, &shell, leaf_size)?;
+    pb.finish_and_clear();
+    let secs = start.elapsed().as_secs_f64();
+    let ts = shell.tree.stats();
+    let s = shell.stats;
+    if json {
+        println!(
+            "{}",
+            json!({
+                "output": output.display().to_string(),
+                "points": shell.len(),
+                "voxel_size": voxel_size,
+                "tree_nodes": ts.nodes,
+                "tree_depth": ts.depth,
+                "interior_points": s.interior_points,
+                "boundary_points_recovered": s.boundary_points_recovered,
+                "normal_fallbacks": s.normal_fallbacks,
+                "voxmap_mismatches": s.voxmap_mismatches,
+                "projections": report.projections,
+                "file_bytes": bytes,
+                "seconds": secs,
+                "voxmap_seconds": t_voxmap,
+                "pointshell_seconds": t_shell,
+                "points_per_second": shell.len() as f64 / t_shell,
+                "peak_rss_bytes": peak_rss_bytes(),
+            })
+        );
+    } else {
+        println!("wrote {}", output.display());
+        println!("  points           {} ({} interior, {} recovered from edges and vertices)", shell.len(), s.interior_points, s.boundary_points_recovered);
+        println!("  normal fallbacks {}", s.normal_fallbacks);
+        println!("  tree             {} nodes, depth {}", ts.nodes, ts.depth);
+        println!("  file             {bytes} bytes");
+        println!(
+            "  time             {secs:.3} s (voxmap {t_voxmap:.3}, pointshell {t_shell:.3}: {:.3e} points/s)",
+            shell.len() as f64 / t_shell
+        );
+    }
+    if s.voxmap_mismatches > 0 {
+        eprintln!("warning: {} surface voxels of the mesh are not surface in the voxmap: is it the voxmap of this mesh?", s.voxmap_mismatches);
+    }
+    Ok(())
+}
+
+fn pointshell_info(path: &Path, json: bool) -> Result<()> {
+    let f = open_pointshell(path)?;
+    let h = f.header();
+    let s = h.stats;
+    if json {
+        println!(
+            "{}",
+            json!({
+                "format_version": h.version,
+                "points": h.points,
+                "voxel_size": h.voxel_size,
+                "origin": h.origin.to_array(),
+                "tree_nodes": h.nodes,
+                "tree_depth": h.tree_depth,
+                "leaf_size": h.leaf_size,
+                "interior_points": s.interior_points,
+                "boundary_points_recovered": s.boundary_points_recovered,
+                "normal_fallbacks": s.normal_fallbacks,
+                "voxmap_mismatches": s.voxmap_mismatches,
+                "file_bytes": h.file_bytes,
+            })
+        );
+    } else {
+        println!("{}: pointshell format {}", path.display(), h.version);
+        println!("  points           {} at voxel size {}", h.points, h.voxel_size);
+        println!("  phases           {} interior, {} recovered from edges and vertices", s.interior_points, s.boundary_points_recovered);
+        println!("  normal fallbacks {}", s.normal_fallbacks);
+        println!("  tree             {} nodes, depth {}, leaves of at most {} points", h.nodes, h.tree_depth, h.leaf_size);
+        println!("  bytes            {}", h.file_bytes);
+    }
+    Ok(())
 }

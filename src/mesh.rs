@@ -159,6 +159,8 @@ impl Mesh {
     }
 
     fn parse_obj(reader: &mut impl BufRead) -> Result<Mesh, MeshError> {
+        let mut reader = PositionsOnly::new(reader);
+        let reader = &mut reader;
         let options = tobj::LoadOptions {
             triangulate: true,
             single_index: false,
@@ -221,6 +223,78 @@ pub fn bounds_of(triangles: &[Triangle]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
+/// An OBJ stream with only what voxelization needs: vertex positions and faces by position
+/// index. Normals and texture coordinates are dropped before the parser sees them, which
+/// saves their memory and avoids tobj's overflow on out-of-range normal indices (found by
+/// fuzzing: `f 1//-6` with one normal panics in debug builds).
+struct PositionsOnly<'a, R: BufRead> {
+    inner: &'a mut R,
+    line: Vec<u8>,
+    out: Vec<u8>,
+    pos: usize,
+}
+
+impl<'a, R: BufRead> PositionsOnly<'a, R> {
+    fn new(inner: &'a mut R) -> Self {
+        PositionsOnly {
+            inner,
+            line: Vec::new(),
+            out: Vec::new(),
+            pos: 0,
+        }
+    }
+
+    /// Fill `out` with the next kept line(s); false at the end of the input.
+    fn refill(&mut self) -> std::io::Result<bool> {
+        self.out.clear();
+        self.pos = 0;
+        while self.out.is_empty() {
+            self.line.clear();
+            if self.inner.read_until(b'\n', &mut self.line)? == 0 {
+                return Ok(false);
+            }
+            let t = self.line.trim_ascii_start();
+            let keyword = t.split(|b| b.is_ascii_whitespace()).next().unwrap_or_default();
+            match keyword {
+                b"vn" | b"vt" | b"vp" => {}
+                b"f" => {
+                    self.out.push(b'f');
+                    for token in t[1..].split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty()) {
+                        let index = token.split(|&b| b == b'/').next().unwrap_or_default();
+                        self.out.push(b' ');
+                        self.out.extend_from_slice(index);
+                    }
+                    self.out.push(b'\n');
+                }
+                _ => self.out.extend_from_slice(&self.line),
+            }
+        }
+        Ok(true)
+    }
+}
+
+impl<R: BufRead> Read for PositionsOnly<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.fill_buf()?.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.out[self.pos..self.pos + n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for PositionsOnly<'_, R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.pos >= self.out.len() && !self.refill()? {
+            return Ok(&[]);
+        }
+        Ok(&self.out[self.pos..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.pos += n;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -233,6 +307,18 @@ mod tests {
         assert_eq!(m.objects.len(), 2);
         assert_eq!(m.objects[0].triangles, 0..2);
         assert_eq!(m.objects[1].name, "b");
+    }
+
+    #[test]
+    fn ignores_normals_and_texture_coordinates() {
+        let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3//1\n";
+        let m = Mesh::from_obj_bytes(obj).unwrap();
+        assert_eq!(m.triangles.len(), 1);
+        // Found by fuzzing: an out-of-range relative normal index overflowed inside tobj.
+        assert!(Mesh::from_obj_bytes(b"v 0 0 0\nvn 2 3 4\nf 1//-6 1 1\n").is_err());
+        for bad in [&b"v 0 0 0\nf -6 1 1\n"[..], b"v 0 0 0\nf 1 2 99999999999999999999\n", b"f\n"] {
+            let _ = Mesh::from_obj_bytes(bad);
+        }
     }
 
     #[test]

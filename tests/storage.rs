@@ -6,22 +6,14 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use proptest::prelude::*;
 use vps::grid::{local_index, Grid, BRICK_VOXELS};
-use vps::storage::format::{
-    RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
-};
+use vps::storage::format::{RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET};
 use vps::storage::{write_voxmap, BrickData, StorageError, VoxmapFile, VoxmapWriter};
 use vps::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap};
 
 /// A layered ball: stored bricks where the layers are, inside runs for the bricks wholly
 /// deep inside, nothing for those far outside.
 fn ball(layers: u8, radius: f64) -> Voxmap {
-    let grid = Grid::around(
-        DVec3::splat(-radius),
-        DVec3::splat(radius),
-        1.0,
-        layers as u32 + 2,
-    )
-    .unwrap();
+    let grid = Grid::around(DVec3::splat(-radius), DVec3::splat(radius), 1.0, layers as u32 + 2).unwrap();
     let deep = inside_value(layers);
     let far = outside_value(layers);
     let n = grid.brick_dims();
@@ -120,10 +112,7 @@ fn round_trip_every_voxel() {
     assert_eq!(report.uncompressed_bytes, 512 * vm.bricks().len() as u64);
     assert_eq!(report.counts, vm.counts());
     assert_eq!(report.file_bytes, std::fs::metadata(&path).unwrap().len());
-    assert!(
-        report.payload_bytes < report.uncompressed_bytes / 4,
-        "{report:?}"
-    );
+    assert!(report.payload_bytes < report.uncompressed_bytes / 4, "{report:?}");
 
     let file = VoxmapFile::open(&path).unwrap();
     assert_eq!(file.header().file_bytes, report.file_bytes);
@@ -141,6 +130,19 @@ fn round_trip_every_voxel() {
     assert_eq!(verified.bricks_checked, vm.bricks().len() as u64);
     assert_eq!(verified.file_bytes, report.file_bytes);
     assert_eq!(files_in(dir.path()), ["ball.vxm"]);
+
+    // Lookups from several threads at once.
+    std::thread::scope(|s| {
+        for t in 0..2u32 {
+            let (file, vm) = (&file, &vm);
+            s.spawn(move || {
+                for i in 0..2000u32 {
+                    let v = [(i * 7 + t) % 60, (i * 13) % 60, (i * 3 + t) % 60];
+                    assert_eq!(file.value(v).unwrap(), vm.value(v));
+                }
+            });
+        }
+    });
 
     // The same bytes come from memory.
     let bytes = std::fs::read(&path).unwrap();
@@ -189,13 +191,7 @@ fn empty_and_tile_only_voxmaps() {
         grid,
         4,
         vec![],
-        vec![
-            KeyRange { start: 0, end: 3 },
-            KeyRange {
-                start: n - 1,
-                end: n,
-            },
-        ],
+        vec![KeyRange { start: 0, end: 3 }, KeyRange { start: n - 1, end: n }],
     );
     let (path, _) = written(dir.path(), &tiles);
     let file = VoxmapFile::open(&path).unwrap();
@@ -281,17 +277,11 @@ fn corruption_gives_the_specific_error() {
         "{e}"
     );
     let v = vm.grid().brick_coords(key).map(|c| c * 8);
-    assert!(matches!(
-        file.value(v),
-        Err(StorageError::BrickChecksum { .. })
-    ));
+    assert!(matches!(file.value(v), Err(StorageError::BrickChecksum { .. })));
     let other = vm.bricks()[entry + 1].key;
     assert!(matches!(file.brick(other), Ok(BrickData::Stored(_))));
     let e = file.verify().unwrap_err();
-    assert!(
-        matches!(e, StorageError::BrickChecksum { index: 5, .. }),
-        "{e}"
-    );
+    assert!(matches!(e, StorageError::BrickChecksum { index: 5, .. }), "{e}");
     assert!(file.to_voxmap().is_err());
 
     // Wrong magic.
@@ -527,5 +517,36 @@ proptest! {
         let file = VoxmapFile::open(&path).unwrap();
         prop_assert_eq!(file.verify().unwrap().counts, vm.counts());
         assert_same(&file, &vm);
+    }
+}
+
+/// Seed inputs for the `vxm_open` fuzz target (see `docs/FUZZING.md`): written only when
+/// `VPS_FUZZ_SEEDS` names a directory. Each file is preceded by the target's mode byte, 0 to
+/// keep checksums as they are and 1 to have the target recompute them.
+#[test]
+fn write_fuzz_seeds() {
+    let Some(out) = std::env::var_os("VPS_FUZZ_SEEDS") else {
+        return;
+    };
+    let out = PathBuf::from(out);
+    std::fs::create_dir_all(&out).unwrap();
+    let grid = Grid::around(DVec3::ZERO, DVec3::splat(10.0), 1.0, 2).unwrap();
+    let seeds = [
+        ("ball", ball(1, 5.0)),
+        ("ball-runs", ball(1, 16.0)),
+        ("empty", Voxmap::from_parts(grid, 3, vec![], vec![])),
+        (
+            "tiles",
+            Voxmap::from_parts(grid, 3, vec![], vec![KeyRange { start: 1, end: 4 }]),
+        ),
+    ];
+    let dir = tmp();
+    for (name, vm) in seeds {
+        let (_, bytes) = written(dir.path(), &vm);
+        for mode in [0u8, 1] {
+            let mut seed = vec![mode];
+            seed.extend_from_slice(&bytes);
+            std::fs::write(out.join(format!("{name}-{mode}")), seed).unwrap();
+        }
     }
 }

@@ -23,7 +23,7 @@ use super::navigate::{touched_voxels, NavStats, Navigation};
 use super::surface::{grid_triangle, map_chunks};
 use super::GenerateError;
 use crate::geometry::closest::{closest_point, Feature};
-use crate::grid::{local_index, split_voxel, Grid, BRICK, BRICK_SHIFT};
+use crate::grid::{local_index, split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS};
 use crate::mesh::Mesh;
 use crate::pointshell::shell::{Pointshell, PointshellStats};
 use crate::pointshell::tree::SphereTree;
@@ -37,6 +37,8 @@ pub const NORMAL_STABILITY: f64 = 0.1;
 /// One projected surface voxel.
 #[derive(Clone, Copy, Debug)]
 struct Projected {
+    /// Brick key × 512 + local index: sorting by it groups the points by brick.
+    order: u64,
     voxel: [u32; 3],
     /// The point, in grid units.
     point: DVec3,
@@ -74,7 +76,7 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
 
     let per_chunk = map_chunks(&grid, &mesh.triangles, |chunk| {
         let mut nav = NavStats::default();
-        let mut cands: Vec<(u32, u8, f64, u32, DVec3)> = Vec::new();
+        let mut cands: Vec<(u64, u32, DVec3)> = Vec::new();
         let span = [0, 1, 2].map(|a| (chunk.hi[a] - chunk.lo[a] + 1) as u32);
         for &ti in chunk.triangles {
             let st = grid_triangle(&grid, &mesh.triangles[ti as usize]);
@@ -84,18 +86,25 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
                 let phase = (cp.feature != Feature::Face) as u8;
                 let l = [0, 1, 2].map(|a| (v[a] - chunk.lo[a]) as u32);
                 let idx = (l[2] * span[1] + l[1]) * span[0] + l[0];
-                cands.push((idx, phase, cp.dist_sq, ti, cp.point));
+                // One sortable key: voxel, then phase, then distance (non-negative f32 bits
+                // order like the numbers); ties go to the lower triangle index.
+                let key = (idx as u64) << 33 | (phase as u64) << 32 | (cp.dist_sq as f32).to_bits() as u64;
+                cands.push((key, ti, cp.point));
             });
         }
         let projections = cands.len() as u64;
-        cands.sort_unstable_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3)));
-        cands.dedup_by_key(|c| c.0);
+        cands.sort_unstable_by_key(|c| (c.0, c.1));
+        cands.dedup_by_key(|c| c.0 >> 33);
         let out: Vec<Projected> = cands
             .into_iter()
-            .map(|(idx, phase, _, triangle, point)| {
+            .map(|(key, triangle, point)| {
+                let (idx, phase) = ((key >> 33) as u32, (key >> 32 & 1) as u8);
                 let l = [idx % span[0], (idx / span[0]) % span[1], idx / (span[0] * span[1])];
+                let voxel = [0, 1, 2].map(|a| chunk.lo[a] as u32 + l[a]);
+                let (b, local) = split_voxel(voxel);
                 Projected {
-                    voxel: [0, 1, 2].map(|a| chunk.lo[a] as u32 + l[a]),
+                    order: grid.brick_key(b) * BRICK_VOXELS as u64 + local as u64,
+                    voxel,
                     point,
                     triangle,
                     phase,
@@ -112,11 +121,7 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
         report.nav += nav;
     }
     // Group by brick, so the normals read each 5×5×5 neighbourhood from one gathered window.
-    let brick_of = |p: &Projected| {
-        let (b, l) = split_voxel(p.voxel);
-        (grid.brick_key(b), l)
-    };
-    projected.par_sort_unstable_by_key(brick_of);
+    projected.par_sort_unstable_by_key(|p| p.order);
 
     let mut stats = PointshellStats {
         interior_points: projected.iter().filter(|p| p.phase == 0).count() as u64,
@@ -124,7 +129,8 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
     };
     stats.boundary_points_recovered = projected.len() as u64 - stats.interior_points;
 
-    let groups: Vec<&[Projected]> = projected.chunk_by(|a, b| brick_of(a).0 == brick_of(b).0).collect();
+    let brick_bits = BRICK_VOXELS.trailing_zeros();
+    let groups: Vec<&[Projected]> = projected.chunk_by(|a, b| a.order >> brick_bits == b.order >> brick_bits).collect();
     let normals: Vec<(Vec<DVec3>, u64, u64)> = groups
         .par_iter()
         .map(|g| {
@@ -181,6 +187,34 @@ struct Window {
 
 const W: usize = BRICK as usize + 4;
 
+/// The 125 offsets of the 5×5×5 neighbourhood: as window index steps, as vectors, and their
+/// lengths, computed once.
+struct Neighbourhood {
+    offsets: [isize; 125],
+    vectors: [[i32; 3]; 125],
+    lengths: [f32; 125],
+}
+
+static NEIGHBOURHOOD: std::sync::LazyLock<Neighbourhood> = std::sync::LazyLock::new(|| {
+    let mut n = Neighbourhood {
+        offsets: [0; 125],
+        vectors: [[0; 3]; 125],
+        lengths: [0.0; 125],
+    };
+    let mut k = 0;
+    for z in -2i32..=2 {
+        for y in -2i32..=2 {
+            for x in -2i32..=2 {
+                n.offsets[k] = (z as isize * W as isize + y as isize) * W as isize + x as isize;
+                n.vectors[k] = [x, y, z];
+                n.lengths[k] = ((x * x + y * y + z * z) as f32).sqrt();
+                k += 1;
+            }
+        }
+    }
+    n
+});
+
 impl Window {
     fn gather(voxmap: &Voxmap, brick: [u32; 3]) -> Window {
         let grid = *voxmap.grid();
@@ -221,18 +255,18 @@ impl Window {
 
     /// The inward normal at local voxel `l`, and whether the triangle's normal had to be used.
     fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool) {
-        let mut sum = DVec3::ZERO;
-        let mut scale = 0.0;
-        for z in -2..=2 {
-            for y in -2..=2 {
-                for x in -2..=2 {
-                    let v = self.get(l, [x, y, z]) as f64;
-                    let o = DVec3::new(x as f64, y as f64, z as f64);
-                    sum += v * o;
-                    scale += v.abs() * o.length();
-                }
-            }
+        let base = ((l[2] as usize + 2) * W + l[1] as usize + 2) * W + l[0] as usize + 2;
+        let (mut sx, mut sy, mut sz) = (0i32, 0i32, 0i32);
+        let mut scale = 0.0f32;
+        for (k, (&off, o)) in NEIGHBOURHOOD.offsets.iter().zip(&NEIGHBOURHOOD.vectors).enumerate() {
+            let v = self.values[(base as isize + off) as usize] as i32;
+            sx += v * o[0];
+            sy += v * o[1];
+            sz += v * o[2];
+            scale += v.unsigned_abs() as f32 * NEIGHBOURHOOD.lengths[k];
         }
+        let sum = DVec3::new(sx as f64, sy as f64, sz as f64);
+        let scale = scale as f64;
         let len = sum.length();
         if len > NORMAL_STABILITY * scale && len > 0.0 {
             return (sum / len, false);

@@ -1,2 +1,3 @@
 //! Geometry kernels: pure functions on triangles, points and boxes.
+pub mod closest;
 pub mod sat;

@@ -12,6 +12,7 @@
 
 pub mod format;
 mod mmap;
+pub mod pointshell;
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -22,13 +23,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
-use crate::voxmap::{
-    inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS,
-};
+use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS};
 use format::{
-    align8, decode_brick, encode_brick, new_compressor, IndexEntry, RawHeader, RunEntry,
-    CODEC_ZSTD_DELTA, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES,
-    VERSION, VERSION_OFFSET,
+    align8, decode_brick, encode_brick, new_compressor, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
+    HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
 };
 
 /// Errors in reading or writing a `.vxm` file. Each names the file and what is wrong.
@@ -269,10 +267,7 @@ fn to_usize(path: &Path, n: u64, what: &str) -> Result<usize, StorageError> {
 /// Check that a grid can be addressed by the format; the reader and the writer share this.
 fn check_grid(grid: &Grid) -> Result<(), String> {
     if !grid.origin.is_finite() {
-        return Err(format!(
-            "grid origin {:?} is not finite",
-            grid.origin.to_array()
-        ));
+        return Err(format!("grid origin {:?} is not finite", grid.origin.to_array()));
     }
     if !(grid.voxel_size.is_finite() && grid.voxel_size > 0.0) {
         return Err(format!(
@@ -300,10 +295,7 @@ impl VoxmapFile {
             source,
         };
         let file = File::open(path).map_err(|e| io("open", e))?;
-        let len = file
-            .metadata()
-            .map_err(|e| io("read metadata of", e))?
-            .len();
+        let len = file.metadata().map_err(|e| io("read metadata of", e))?.len();
         let data = if len < HEADER_BYTES as u64 {
             // Too short to be valid: read it so the error says exactly why, without mapping
             // an empty file (which some platforms refuse).
@@ -362,12 +354,7 @@ impl VoxmapFile {
         let runs = bytes
             .get(self.layout.runs.clone())
             .and_then(|b| bytemuck::try_cast_slice(b).ok())
-            .ok_or_else(|| {
-                corrupt(
-                    &self.path,
-                    "inside-run table is out of bounds or misaligned",
-                )
-            })?;
+            .ok_or_else(|| corrupt(&self.path, "inside-run table is out of bounds or misaligned"))?;
         Ok((index, runs))
     }
 
@@ -484,12 +471,7 @@ impl VoxmapFile {
                 end: r.end,
             })
             .collect();
-        Ok(Voxmap::from_parts(
-            self.header.grid,
-            self.header.layers,
-            bricks,
-            runs,
-        ))
+        Ok(Voxmap::from_parts(self.header.grid, self.header.layers, bricks, runs))
     }
 
     /// The structure checks of `verify`, then every brick decoded in parallel; bricks are
@@ -528,10 +510,7 @@ impl VoxmapFile {
             if e.len as usize > MAX_PAYLOAD_BYTES {
                 return Err(corrupt(
                     path,
-                    format!(
-                        "index entry {i} (key {}): payload length {} is too large",
-                        e.key, e.len
-                    ),
+                    format!("index entry {i} (key {}): payload length {} is too large", e.key, e.len),
                 ));
             }
             self.payload(i, e)?;
@@ -616,11 +595,7 @@ impl VoxmapFile {
                         });
                     }
                 }
-                Ok(ChunkScan {
-                    surface,
-                    inner,
-                    bricks,
-                })
+                Ok(ChunkScan { surface, inner, bricks })
             })
             .collect();
         let mut counts = VoxmapCounts {
@@ -641,11 +616,7 @@ impl VoxmapFile {
             .ok_or_else(|| corrupt(path, "inner voxel count overflows"))?;
         let stored = self.header.counts;
         for (name, have, want) in [
-            (
-                "surface_voxels",
-                stored.surface_voxels,
-                counts.surface_voxels,
-            ),
+            ("surface_voxels", stored.surface_voxels, counts.surface_voxels),
             ("inner_voxels", stored.inner_voxels, counts.inner_voxels),
             ("bricks_stored", stored.bricks_stored, counts.bricks_stored),
             (
@@ -689,9 +660,7 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
     };
     // Magic, then version, before anything else: their positions are the same in every
     // version, unlike the header checksum's.
-    let magic = bytes
-        .get(..MAGIC.len())
-        .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
+    let magic = bytes.get(..MAGIC.len()).ok_or_else(|| truncated(HEADER_BYTES as u64))?;
     if magic != MAGIC {
         return Err(StorageError::BadMagic {
             path: path.to_path_buf(),
@@ -791,10 +760,7 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
         .and_then(|n| n.checked_add(index_offset))
         .ok_or_else(|| overflow("index end"))?;
     if h.runs_offset != index_end {
-        return Err(bad(format!(
-            "runs_offset is {}, expected {index_end}",
-            h.runs_offset
-        )));
+        return Err(bad(format!("runs_offset is {}, expected {index_end}", h.runs_offset)));
     }
     let runs_end = h
         .inside_runs
@@ -808,19 +774,12 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
         )));
     }
     let layout = Layout {
-        payload: to_usize(path, h.payload_offset, "payload offset")?
-            ..to_usize(path, payload_end, "payload end")?,
-        index: to_usize(path, index_offset, "index offset")?
-            ..to_usize(path, index_end, "index end")?,
-        runs: to_usize(path, index_end, "run table offset")?
-            ..to_usize(path, runs_end, "run table end")?,
+        payload: to_usize(path, h.payload_offset, "payload offset")?..to_usize(path, payload_end, "payload end")?,
+        index: to_usize(path, index_offset, "index offset")?..to_usize(path, index_end, "index end")?,
+        runs: to_usize(path, index_end, "run table offset")?..to_usize(path, runs_end, "run table end")?,
     };
-    let index_bytes = bytes
-        .get(layout.index.clone())
-        .ok_or_else(|| truncated(index_end))?;
-    let runs_bytes = bytes
-        .get(layout.runs.clone())
-        .ok_or_else(|| truncated(runs_end))?;
+    let index_bytes = bytes.get(layout.index.clone()).ok_or_else(|| truncated(index_end))?;
+    let runs_bytes = bytes.get(layout.runs.clone()).ok_or_else(|| truncated(runs_end))?;
     if bytemuck::try_cast_slice::<u8, IndexEntry>(index_bytes).is_err() {
         return Err(corrupt(path, "brick index is misaligned"));
     }
@@ -891,11 +850,7 @@ impl std::fmt::Debug for VoxmapWriter {
 
 impl VoxmapWriter {
     /// Start writing `path` for a voxmap on `grid` with `layers` layers.
-    pub fn create(
-        path: impl AsRef<Path>,
-        grid: Grid,
-        layers: u8,
-    ) -> Result<VoxmapWriter, StorageError> {
+    pub fn create(path: impl AsRef<Path>, grid: Grid, layers: u8) -> Result<VoxmapWriter, StorageError> {
         let path = path.as_ref().to_path_buf();
         let invalid = |what: String| StorageError::InvalidInput {
             path: path.clone(),
@@ -918,13 +873,11 @@ impl VoxmapWriter {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o644));
         }
-        let tmp = builder
-            .tempfile_in(&dir)
-            .map_err(|source| StorageError::Io {
-                action: "create a temporary file in",
-                path: dir.clone(),
-                source,
-            })?;
+        let tmp = builder.tempfile_in(&dir).map_err(|source| StorageError::Io {
+            action: "create a temporary file in",
+            path: dir.clone(),
+            source,
+        })?;
         let compressor = new_compressor().map_err(|source| StorageError::Io {
             action: "set up zstd for",
             path: path.clone(),
@@ -978,12 +931,7 @@ impl VoxmapWriter {
     }
 
     /// Check that `key` may come next and `values` are in range, without changing anything.
-    fn check_brick(
-        &self,
-        prev: Option<u64>,
-        key: u64,
-        values: &BrickValues,
-    ) -> Result<(), StorageError> {
+    fn check_brick(&self, prev: Option<u64>, key: u64, values: &BrickValues) -> Result<(), StorageError> {
         if key >= self.brick_count {
             return Err(self.invalid(format!(
                 "brick key {key} is beyond the grid's {} bricks",
@@ -991,9 +939,7 @@ impl VoxmapWriter {
             )));
         }
         if let Some(p) = prev.filter(|&p| p >= key) {
-            return Err(self.invalid(format!(
-                "brick key {key} after {p}: keys must strictly increase"
-            )));
+            return Err(self.invalid(format!("brick key {key} after {p}: keys must strictly increase")));
         }
         let limit = self.layers as i16 + 1;
         if let Some(i) = values.iter().position(|&v| (v as i16).abs() > limit) {
@@ -1005,13 +951,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    fn push_payload(
-        &mut self,
-        key: u64,
-        payload: &[u8],
-        surface: u64,
-        inner: u64,
-    ) -> Result<(), StorageError> {
+    fn push_payload(&mut self, key: u64, payload: &[u8], surface: u64, inner: u64) -> Result<(), StorageError> {
         let entry = IndexEntry {
             key,
             offset: self.pos,
@@ -1028,8 +968,7 @@ impl VoxmapWriter {
     /// Append one brick; keys must strictly increase.
     pub fn push_brick(&mut self, key: u64, values: &BrickValues) -> Result<(), StorageError> {
         self.check_brick(self.index.last().map(|e| e.key), key, values)?;
-        let payload =
-            encode_brick(&mut self.compressor, values).map_err(self.io("compress a brick for"))?;
+        let payload = encode_brick(&mut self.compressor, values).map_err(self.io("compress a brick for"))?;
         let (surface, inner) = tally(values);
         self.push_payload(key, &payload, surface, inner)
     }
@@ -1046,9 +985,7 @@ impl VoxmapWriter {
             let encoded: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
                 .par_iter()
                 .map_init(new_compressor, |c, b| {
-                    let c = c
-                        .as_mut()
-                        .map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     let (surface, inner) = tally(&b.values);
                     Ok((encode_brick(c, &b.values)?, surface, inner))
                 })
@@ -1166,9 +1103,7 @@ impl VoxmapWriter {
             .map_err(self.io("seek in temporary file for"))?;
         tmp.write_all(bytemuck::bytes_of(&h))
             .map_err(self.io("write header of"))?;
-        tmp.as_file()
-            .sync_all()
-            .map_err(self.io("sync temporary file for"))?;
+        tmp.as_file().sync_all().map_err(self.io("sync temporary file for"))?;
         tmp.persist(&self.path).map_err(|e| StorageError::Io {
             action: "rename temporary file to",
             path: self.path.clone(),
@@ -1188,9 +1123,9 @@ impl VoxmapWriter {
 
 /// Surface (value 0) and inner (value > 0) voxels of a brick.
 fn tally(values: &BrickValues) -> (u64, u64) {
-    values.iter().fold((0, 0), |(s, i), &v| {
-        (s + (v == 0) as u64, i + (v > 0) as u64)
-    })
+    values
+        .iter()
+        .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
 /// Make the rename itself durable. Best effort: some file systems cannot sync a directory,

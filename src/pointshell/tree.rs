@@ -1,0 +1,861 @@
+//! The point-sphere tree over a pointshell (Barbič & James 2007).
+//!
+//! The haptic query walks this tree from the root and drops every node whose bounding sphere is
+//! provably outside the static object's voxmap, so only the points near contact are looked up.
+//! What makes the walk cheap is how tight the spheres are: a sphere a little larger than needed
+//! reaches into the voxmap's layers more often and forces a descent. So each node gets the best
+//! of a few cheap centres, refined towards the minimal enclosing sphere (see [`build`]), and
+//! [`tightness`] measures the result against the exact minimal sphere of [`reference`].
+//!
+//! The nodes are a flat array of fixed-size, `#[repr(C)]`, plain-old-data records
+//! ([`SphereNode`]), because the tree is written to a file and memory-mapped, and read in place
+//! without a parsing step. Node 0 is the root; the two children of an internal node are
+//! adjacent, so one index reaches both; the points are reordered so that every node's points are
+//! one contiguous range, so a node needs no list of point indices.
+
+use std::ops::Range;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+/// Default maximum number of points in a leaf.
+///
+/// Measured with the query proxy of `benches/tree.rs` (a 126k-point sphere pressed into a static
+/// sphere, one voxmap look-up per node tested and per point tested): leaves of 8 and 16 need
+/// the same number of look-ups within 1%, 32 needs 4–10% more and 64 far more, because a leaf
+/// that is reached tests all of its points, few of which are in contact, while smaller leaves
+/// add node tests. 16 has half the nodes of 8 (a smaller file, fewer cache misses), hence 16.
+/// The median split makes the leaves hold between `leaf_size / 2` and `leaf_size` points.
+pub const LEAF_SIZE: usize = 16;
+
+/// `first_child` of a leaf.
+pub const NO_CHILD: u32 = u32::MAX;
+
+/// Nodes with at least this many points build their two subtrees in parallel. Below it the
+/// work of a subtree (a few hundred microseconds) is too small to be worth a task.
+const PARALLEL_MIN_POINTS: usize = 4096;
+
+/// Core-set refinement steps per node (see [`build`]). Each costs one pass over the node's
+/// points, and stops early once the core set's ball holds every point. Measured on 200k points
+/// of sphere, torus, box surfaces and a solid ball: the mean radius over the minimal one is
+/// 1.007–1.026 with no step, 1.0000–1.0001 after 4 and 1.0000 after 8, where the worst node
+/// also reaches 1.0000 (1.05 after 4); the build costs at most about 10% more than with none.
+const CORE_SET_STEPS: usize = 8;
+
+/// Up to six extreme points start the core set, and each refinement step adds one.
+const CORE_SET_CAPACITY: usize = 6 + CORE_SET_STEPS;
+
+/// One node of the sphere tree: 48 bytes, little-endian, no padding, so that a file of them can
+/// be memory-mapped and cast to `&[SphereNode]` in place.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct SphereNode {
+    /// Centre of the bounding sphere.
+    pub center: [f32; 3],
+    /// Radius of the bounding sphere: every point below lies within it, checked in `f32` as
+    /// `(p - c).length() <= radius` (and so also `(p - c).length_squared() <= radius²`).
+    pub radius: f32,
+    /// Unit mean direction of the normals below; zero when they cancel out.
+    pub cone_axis: [f32; 3],
+    /// Cosine of the cone's half-angle: every normal `n` below has `n·axis >= cone_cos` (in
+    /// `f32`); -1.0 when the cone is wider than a hemisphere or undefined.
+    pub cone_cos: f32,
+    /// Index of the left child; the right child is `first_child + 1`; [`NO_CHILD`] for a leaf.
+    pub first_child: u32,
+    /// The node's points are `points[point_start .. point_start + point_count]`.
+    pub point_start: u32,
+    /// Number of points below the node.
+    pub point_count: u32,
+    /// Depth of the node; 0 for the root.
+    pub depth: u32,
+}
+
+// The file format depends on this layout; a change must be deliberate.
+const _: () = assert!(std::mem::size_of::<SphereNode>() == 48);
+const _: () = assert!(std::mem::align_of::<SphereNode>() == 4);
+
+impl SphereNode {
+    /// Whether the node is a leaf (has no children).
+    #[inline]
+    pub fn is_leaf(&self) -> bool {
+        self.first_child == NO_CHILD
+    }
+
+    /// The two children's indices, or `None` for a leaf.
+    #[inline]
+    pub fn children(&self) -> Option<[usize; 2]> {
+        (!self.is_leaf()).then(|| {
+            let c = self.first_child as usize;
+            [c, c + 1]
+        })
+    }
+
+    /// The node's points, as a range of indices into the reordered points.
+    #[inline]
+    pub fn points(&self) -> Range<usize> {
+        let s = self.point_start as usize;
+        s..s + self.point_count as usize
+    }
+
+    /// Centre of the bounding sphere.
+    #[inline]
+    pub fn center(&self) -> Vec3 {
+        Vec3::from_array(self.center)
+    }
+
+    /// Axis of the normal cone (zero when undefined).
+    #[inline]
+    pub fn cone_axis(&self) -> Vec3 {
+        Vec3::from_array(self.cone_axis)
+    }
+}
+
+/// A sphere tree over a pointshell: node 0 is the root, and the tree of zero points has no nodes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SphereTree {
+    /// The nodes, root first; children of a node are adjacent and come after it.
+    pub nodes: Vec<SphereNode>,
+}
+
+/// Shape of a tree, from [`SphereTree::stats`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeStats {
+    /// Number of nodes.
+    pub nodes: usize,
+    /// Number of leaves.
+    pub leaves: usize,
+    /// Largest depth of a node (0 for a single leaf, and for the empty tree).
+    pub depth: u32,
+    /// Mean number of points per leaf (0 for the empty tree).
+    pub mean_leaf_size: f64,
+}
+
+/// How close the node radii are to the smallest possible, from [`tightness`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TightnessStats {
+    /// Mean of node radius / minimal enclosing radius of the node's points.
+    pub mean_ratio: f64,
+    /// Largest such ratio.
+    pub max_ratio: f64,
+    /// Nodes measured: those whose points are not all one point (a ratio needs a positive
+    /// minimal radius).
+    pub nodes_measured: usize,
+}
+
+impl SphereTree {
+    /// Builds the tree; the same as the free function [`build`].
+    pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree, Vec<u32>) {
+        build(points, normals, leaf_size)
+    }
+
+    /// The root, or `None` for the empty tree.
+    pub fn root(&self) -> Option<&SphereNode> {
+        self.nodes.first()
+    }
+
+    /// Node, leaf and depth counts.
+    pub fn stats(&self) -> TreeStats {
+        let leaves = self.nodes.iter().filter(|n| n.is_leaf()).count();
+        let points: u64 = self
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| u64::from(n.point_count))
+            .sum();
+        TreeStats {
+            nodes: self.nodes.len(),
+            leaves,
+            depth: self.nodes.iter().map(|n| n.depth).max().unwrap_or(0),
+            mean_leaf_size: if leaves == 0 {
+                0.0
+            } else {
+                points as f64 / leaves as f64
+            },
+        }
+    }
+
+    /// Checks every invariant the query relies on, given the points and normals already
+    /// reordered by the build's `order`: the root covers all points; every internal node has two
+    /// adjacent children after it, one depth deeper, whose point ranges split its own; every
+    /// node is reached exactly once from the root; leaves hold 1 to `leaf_size` points; every
+    /// point under a node is inside its sphere and every normal inside its cone, in `f32`.
+    ///
+    /// Cost O(n log n). Meant for trees read from files and for tests; the message names the
+    /// first node at fault.
+    pub fn validate(&self, points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> Result<(), String> {
+        if points.len() != normals.len() {
+            return Err(format!("{} points but {} normals", points.len(), normals.len()));
+        }
+        let Some(root) = self.root() else {
+            return if points.is_empty() {
+                Ok(())
+            } else {
+                Err(format!("no nodes for {} points", points.len()))
+            };
+        };
+        if root.point_start != 0 || root.point_count as usize != points.len() || root.depth != 0 {
+            return Err(format!(
+                "root covers {:?} at depth {}, expected 0..{} at depth 0",
+                root.points(),
+                root.depth,
+                points.len()
+            ));
+        }
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![0usize];
+        seen[0] = true;
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i];
+            let range = node.points();
+            if range.end > points.len() {
+                return Err(format!("node {i}: points {range:?} beyond {}", points.len()));
+            }
+            match node.children() {
+                None => {
+                    if node.point_count == 0 || node.point_count as usize > leaf_size {
+                        return Err(format!("leaf {i} holds {} points (max {leaf_size})", node.point_count));
+                    }
+                }
+                Some([l, r]) => {
+                    if l <= i || r >= self.nodes.len() {
+                        return Err(format!("node {i}: children {l}, {r} out of order or range"));
+                    }
+                    let (a, b) = (&self.nodes[l], &self.nodes[r]);
+                    let split = a.points().end;
+                    if a.point_start != node.point_start
+                        || b.point_start as usize != split
+                        || b.points().end != range.end
+                        || a.point_count == 0
+                        || b.point_count == 0
+                    {
+                        return Err(format!(
+                            "node {i}: children ranges {:?}, {:?} do not split {range:?}",
+                            a.points(),
+                            b.points()
+                        ));
+                    }
+                    if a.depth != node.depth + 1 || b.depth != node.depth + 1 {
+                        return Err(format!(
+                            "node {i}: children depths {}, {} under {}",
+                            a.depth, b.depth, node.depth
+                        ));
+                    }
+                    for c in [l, r] {
+                        if std::mem::replace(&mut seen[c], true) {
+                            return Err(format!("node {c} reached twice"));
+                        }
+                        stack.push(c);
+                    }
+                }
+            }
+            let c = node.center();
+            if !at_most(0.0, node.radius) {
+                return Err(format!("node {i}: radius {}", node.radius));
+            }
+            if let Some(j) = range.clone().find(|&j| !at_most((points[j] - c).length(), node.radius)) {
+                return Err(format!(
+                    "node {i}: point {j} at distance {} outside radius {}",
+                    (points[j] - c).length(),
+                    node.radius
+                ));
+            }
+            if node.cone_cos != -1.0 {
+                let axis = node.cone_axis();
+                if let Some(j) = range.clone().find(|&j| !at_most(node.cone_cos, normals[j].dot(axis))) {
+                    return Err(format!(
+                        "node {i}: normal {j} outside the cone (cos {} < {})",
+                        normals[j].dot(axis),
+                        node.cone_cos
+                    ));
+                }
+            }
+        }
+        if let Some(i) = seen.iter().position(|s| !s) {
+            return Err(format!("node {i} is not reachable from the root"));
+        }
+        Ok(())
+    }
+}
+
+/// `a <= b`, and false when either is NaN: a bound read from a file must be a number.
+#[inline]
+fn at_most(a: f32, b: f32) -> bool {
+    a <= b
+}
+
+/// Reorders `values` (points, normals, anything per point) by the `order` that [`build`]
+/// returned: element `i` of the result is `values[order[i]]`.
+pub fn reorder<T: Copy>(values: &[T], order: &[u32]) -> Vec<T> {
+    order.iter().map(|&i| values[i as usize]).collect()
+}
+
+/// A point during the build: position, normal and where it came from, kept together so that the
+/// median splits move them as one and every pass over a node reads contiguous memory.
+#[derive(Clone, Copy)]
+struct Item {
+    p: Vec3,
+    n: Vec3,
+    id: u32,
+}
+
+/// Builds the sphere tree of a pointshell, with at most `leaf_size` points per leaf
+/// ([`LEAF_SIZE`] is the default).
+///
+/// Returns the tree and the permutation `order`: point `i` of the tree is `points[order[i]]`
+/// (reorder the points, normals and anything else per point with [`reorder`]).
+///
+/// Top-down: a node splits its points at the median along the axis of largest extent of their
+/// bounding box, so the tree is balanced (depth `ceil(log2(n / leaf_size))`) and a node's point
+/// count alone decides its subtree's shape and size. That makes the node layout a function of
+/// the input alone: a node's children sit at the start of its descendants' block, followed by
+/// the left subtree's descendants and then the right one's, and the blocks' sizes are computed,
+/// not claimed from a shared counter, so the two subtrees are built in parallel (`rayon::join`,
+/// for nodes of at least 4096 points) and the result does not depend on the number of threads.
+///
+/// Each node's sphere costs O(its points), so the build is O(n log n): the candidates are the
+/// bounding box's centre, the centroid, and the minimal sphere of a small core set — the extreme
+/// points along x, y and z, grown by the farthest point from the current centre a few times,
+/// Bădoiu–Clarkson style, each step one pass. The candidate whose farthest point is nearest
+/// wins, and the radius is that farthest distance measured in `f32` from the stored `f32`
+/// centre, then raised by a few ulps, so that containment holds when re-checked in `f32`. The
+/// normal cone is the mean normal and the smallest cosine to it, lowered by two ulps.
+///
+/// # Panics
+/// If `points` and `normals` differ in length, `leaf_size` is 0, there are 2³¹ points or more,
+/// or a coordinate is not finite.
+pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree, Vec<u32>) {
+    assert_eq!(points.len(), normals.len(), "one normal per point");
+    assert!(leaf_size > 0, "leaf_size must be positive");
+    // Node indices are u32 and a tree has fewer than 2n nodes.
+    assert!(points.len() < 1 << 31, "too many points for u32 node indices");
+    assert!(
+        points.iter().chain(normals).all(|v| v.is_finite()),
+        "points and normals must be finite"
+    );
+    if points.is_empty() {
+        return (SphereTree::default(), Vec::new());
+    }
+    let mut items: Vec<Item> = points
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .map(|(i, (&p, &n))| Item { p, n, id: i as u32 })
+        .collect();
+    let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
+    let (root, rest) = nodes.split_first_mut().expect("at least one node");
+    build_node(&mut items, 0, 0, root, rest, 1, leaf_size);
+    let order = items.iter().map(|it| it.id).collect();
+    (SphereTree { nodes }, order)
+}
+
+/// Number of leaves of the subtree over `n >= 1` points, following the median split of
+/// [`build_node`] (`n` → `n / 2` and `n - n / 2`). Halving keeps the sizes at one depth within
+/// one of each other, so a depth is a size `a` with a count and `a + 1` with a count, and this
+/// takes O(log n) steps.
+fn leaf_count(n: usize, leaf: usize) -> usize {
+    let (mut a, mut count_a, mut count_a1) = (n, 1usize, 0usize);
+    let mut leaves = 0;
+    loop {
+        if a <= leaf {
+            leaves += count_a;
+            count_a = 0;
+        }
+        if a < leaf {
+            leaves += count_a1;
+            count_a1 = 0;
+        }
+        if count_a == 0 && count_a1 == 0 {
+            return leaves;
+        }
+        // a = 2m splits into m, m and a + 1 into m, m + 1; a = 2m + 1 splits into m, m + 1 and
+        // a + 1 into m + 1, m + 1.
+        if a % 2 == 0 {
+            (count_a, count_a1) = (2 * count_a + count_a1, count_a1);
+        } else {
+            (count_a, count_a1) = (count_a, count_a + 2 * count_a1);
+        }
+        a /= 2;
+    }
+}
+
+/// Number of nodes of the subtree over `n` points: a full binary tree, so `2 leaves - 1`.
+fn subtree_nodes(n: usize, leaf: usize) -> usize {
+    if n == 0 {
+        0
+    } else {
+        2 * leaf_count(n, leaf) - 1
+    }
+}
+
+/// Builds the subtree over `items` into `node` and its descendants' block `desc`, which starts at
+/// node index `desc_base` and holds exactly `subtree_nodes(items.len()) - 1` nodes.
+fn build_node(
+    items: &mut [Item],
+    point_start: u32,
+    depth: u32,
+    node: &mut SphereNode,
+    desc: &mut [SphereNode],
+    desc_base: u32,
+    leaf: usize,
+) {
+    let fit = fit(items);
+    *node = SphereNode {
+        center: fit.center.to_array(),
+        radius: fit.radius,
+        cone_axis: fit.cone_axis.to_array(),
+        cone_cos: fit.cone_cos,
+        first_child: NO_CHILD,
+        point_start,
+        point_count: items.len() as u32,
+        depth,
+    };
+    if items.len() <= leaf {
+        debug_assert!(desc.is_empty());
+        return;
+    }
+    let mid = items.len() / 2;
+    let axis = fit.split_axis;
+    // Ties broken by the original index: a strict total order, so which points go left is
+    // decided by the input alone.
+    items.select_nth_unstable_by(mid, |a, b| a.p[axis].total_cmp(&b.p[axis]).then(a.id.cmp(&b.id)));
+    let parallel = items.len() >= PARALLEL_MIN_POINTS;
+    let (left_items, right_items) = items.split_at_mut(mid);
+    let (pair, rest) = desc.split_at_mut(2);
+    let (left_desc, right_desc) = rest.split_at_mut(subtree_nodes(mid, leaf) - 1);
+    debug_assert_eq!(right_desc.len(), subtree_nodes(right_items.len(), leaf) - 1);
+    let [left, right] = pair else {
+        unreachable!("split_at_mut(2)")
+    };
+    node.first_child = desc_base;
+    let left_base = desc_base + 2;
+    let right_base = left_base + left_desc.len() as u32;
+    let right_start = point_start + mid as u32;
+    let mut go_left = move || build_node(left_items, point_start, depth + 1, left, left_desc, left_base, leaf);
+    let mut go_right = move || build_node(right_items, right_start, depth + 1, right, right_desc, right_base, leaf);
+    if parallel {
+        rayon::join(go_left, go_right);
+    } else {
+        go_left();
+        go_right();
+    }
+}
+
+/// A node's bounding sphere, normal cone and split axis.
+struct Fit {
+    center: Vec3,
+    radius: f32,
+    cone_axis: Vec3,
+    cone_cos: f32,
+    split_axis: usize,
+}
+
+/// Bounding sphere and normal cone of `items` (not empty), in O(items).
+fn fit(items: &[Item]) -> Fit {
+    // Pass 1: bounding box with the points that attain it, and the sums for the centroid and the
+    // mean normal (in f64: a million f32 additions would lose the centroid's low bits).
+    let first = items[0].p;
+    let (mut lo, mut hi) = (first, first);
+    let (mut arg_lo, mut arg_hi) = ([0usize; 3], [0usize; 3]);
+    let (mut sum_p, mut sum_n) = (DVec3::ZERO, DVec3::ZERO);
+    for (i, it) in items.iter().enumerate() {
+        for a in 0..3 {
+            if it.p[a] < lo[a] {
+                lo[a] = it.p[a];
+                arg_lo[a] = i;
+            }
+            if it.p[a] > hi[a] {
+                hi[a] = it.p[a];
+                arg_hi[a] = i;
+            }
+        }
+        sum_p += it.p.as_dvec3();
+        sum_n += it.n.as_dvec3();
+    }
+    let n = items.len() as f64;
+    let extent = hi - lo;
+    let split_axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+
+    let mean_n = sum_n / n;
+    // The mean of unit normals that nearly cancel has no direction worth keeping: the cone is
+    // then at least a hemisphere anyway.
+    let cone_axis = if mean_n.length() > 1e-9 {
+        mean_n.normalize().as_vec3()
+    } else {
+        Vec3::ZERO
+    };
+
+    // Starting core set: the extreme points, which pin the box's faces.
+    let mut core = [DVec3::ZERO; CORE_SET_CAPACITY];
+    let mut core_len = 0;
+    let mut core_ids = [usize::MAX; 6];
+    for &i in arg_lo.iter().chain(&arg_hi) {
+        if !core_ids[..core_len].contains(&i) {
+            core_ids[core_len] = i;
+            core[core_len] = items[i].p.as_dvec3();
+            core_len += 1;
+        }
+    }
+    let mut ball = core_ball(core, core_len);
+
+    // Pass 2: the farthest point from each candidate centre, and the smallest normal cosine.
+    let candidates = [lo * 0.5 + hi * 0.5, (sum_p / n).as_vec3(), ball.center.as_vec3()];
+    let mut far2 = [0.0f32; 3];
+    let mut core_far = 0usize;
+    let mut min_cos = f32::INFINITY;
+    for (i, it) in items.iter().enumerate() {
+        far2[0] = far2[0].max((it.p - candidates[0]).length_squared());
+        far2[1] = far2[1].max((it.p - candidates[1]).length_squared());
+        let d2 = (it.p - candidates[2]).length_squared();
+        if d2 > far2[2] {
+            far2[2] = d2;
+            core_far = i;
+        }
+        min_cos = min_cos.min(it.n.dot(cone_axis));
+    }
+    let (mut best, mut best_far2) = (candidates[0], far2[0]);
+    for (&c, &f) in candidates.iter().zip(&far2).skip(1) {
+        if f < best_far2 {
+            (best, best_far2) = (c, f);
+        }
+    }
+
+    // Core-set steps: add the farthest point from the core ball's centre and take the new core
+    // set's minimal ball. Each step's ball is at least as large as the last and approaches the
+    // minimal sphere of all points from below, while its farthest point approaches it from above.
+    let mut core_far2 = far2[2];
+    for _ in 0..CORE_SET_STEPS {
+        // The farthest point inside the core ball (up to f32 rounding of the centre) means the
+        // core ball already holds everything: it is the minimal sphere.
+        if f64::from(core_far2).sqrt() <= ball.radius * (1.0 + 1e-6) {
+            break;
+        }
+        core[core_len] = items[core_far].p.as_dvec3();
+        core_len += 1;
+        ball = core_ball(core, core_len);
+        let c = ball.center.as_vec3();
+        core_far2 = 0.0;
+        for (i, it) in items.iter().enumerate() {
+            let d2 = (it.p - c).length_squared();
+            if d2 > core_far2 {
+                core_far2 = d2;
+                core_far = i;
+            }
+        }
+        if core_far2 < best_far2 {
+            (best, best_far2) = (c, core_far2);
+        }
+    }
+
+    // sqrt is correctly rounded and monotonic, so sqrt(max d²) is the largest f32 `length()`;
+    // the bump of a few ulps covers re-checks by `length_squared() <= radius²` and by other
+    // roundings of the same distance; the absolute term only matters for subnormal radii.
+    let radius = best_far2.sqrt() * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE;
+    let cone_cos = if cone_axis == Vec3::ZERO {
+        -1.0
+    } else {
+        let c = min_cos - 2.0 * f32::EPSILON;
+        if c < 0.0 {
+            -1.0
+        } else {
+            c.min(1.0)
+        }
+    };
+    Fit {
+        center: best,
+        radius,
+        cone_axis,
+        cone_cos,
+        split_axis,
+    }
+}
+
+/// Minimal ball of the first `len` points of a core set, on a copy, since Welzl permutes them.
+fn core_ball(mut core: [DVec3; CORE_SET_CAPACITY], len: usize) -> reference::Ball {
+    reference::min_ball_in_order(&mut core[..len])
+}
+
+/// Tightness of every node's sphere: node radius over the radius of the minimal enclosing sphere
+/// of the node's points ([`reference::min_enclosing_sphere`]). `points` are the reordered points.
+/// Nodes whose points all coincide have no ratio and are not measured.
+///
+/// Costs O(n log n) expected (Welzl on every node), in parallel over nodes.
+pub fn tightness(tree: &SphereTree, points: &[Vec3]) -> TightnessStats {
+    let ratios: Vec<Option<f64>> = tree
+        .nodes
+        .par_iter()
+        .map(|node| {
+            let ball = reference::min_enclosing_sphere(&points[node.points()])?;
+            (ball.radius > 0.0).then(|| f64::from(node.radius) / ball.radius)
+        })
+        .collect();
+    // Summed in node order, so the mean does not depend on the thread count.
+    let (mut sum, mut max, mut count) = (0.0, 0.0f64, 0usize);
+    for r in ratios.into_iter().flatten() {
+        sum += r;
+        max = max.max(r);
+        count += 1;
+    }
+    TightnessStats {
+        mean_ratio: if count == 0 { 0.0 } else { sum / count as f64 },
+        max_ratio: max,
+        nodes_measured: count,
+    }
+}
+
+/// The exact minimal enclosing sphere (Welzl 1991), slow but sure: the yardstick of
+/// [`tightness`], and the solver the build uses on its small core sets.
+pub mod reference {
+    use glam::{DVec3, Vec3};
+
+    /// A sphere in `f64`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Ball {
+        /// Centre.
+        pub center: DVec3,
+        /// Radius.
+        pub radius: f64,
+    }
+
+    /// Relative slack of the containment test, so that points on the boundary, found again
+    /// after rounding, do not count as outside (which would make the recursion chase rounding).
+    const SLACK: f64 = 1e-10;
+
+    /// Working ball: the centre and the squared radius, negative for the empty ball.
+    #[derive(Clone, Copy)]
+    struct B {
+        c: DVec3,
+        r2: f64,
+    }
+
+    impl B {
+        const EMPTY: B = B {
+            c: DVec3::ZERO,
+            r2: -1.0,
+        };
+
+        #[inline]
+        fn contains(&self, p: DVec3) -> bool {
+            (p - self.c).length_squared() <= self.r2 * (1.0 + SLACK)
+        }
+
+        fn ball(self) -> Ball {
+            Ball {
+                center: self.c,
+                radius: self.r2.max(0.0).sqrt(),
+            }
+        }
+    }
+
+    /// Fixed-seed splitmix64, so that the shuffle (and so the work, not the result) is
+    /// reproducible.
+    struct SplitMix(u64);
+
+    impl SplitMix {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+    }
+
+    /// The minimal sphere enclosing `points`, or `None` for no points.
+    ///
+    /// Welzl's algorithm in its iterative form with move-to-front (as in Gärtner's Miniball):
+    /// one loop per boundary point (at most four in 3-D, so the nesting is bounded and nothing
+    /// recurses on n), a point found outside becomes a boundary point of the ball of the points
+    /// before it, then moves to the front, where later passes meet it first. After a fixed-seed
+    /// shuffle the expected cost is O(n). In `f64`, with a relative slack of 1e-10 on
+    /// containment and a fallback for (nearly) degenerate boundary sets.
+    pub fn min_enclosing_sphere(points: &[Vec3]) -> Option<Ball> {
+        if points.is_empty() {
+            return None;
+        }
+        let mut pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+        let mut rng = SplitMix(0x5eed_5eed_5eed);
+        for i in (1..pts.len()).rev() {
+            let j = (rng.next() % (i as u64 + 1)) as usize;
+            pts.swap(i, j);
+        }
+        Some(min_ball_in_order(&mut pts))
+    }
+
+    /// Welzl with move-to-front over `pts` in the given order (which it permutes); for small sets
+    /// the order does not matter, for large ones shuffle first.
+    pub(super) fn min_ball_in_order(pts: &mut [DVec3]) -> Ball {
+        let mut b = B::EMPTY;
+        for i in 0..pts.len() {
+            if !b.contains(pts[i]) {
+                let q = pts[i];
+                b = with_1(&mut pts[..i], q);
+                pts[..=i].rotate_right(1);
+            }
+        }
+        b.ball()
+    }
+
+    /// Minimal ball of `pts` with `q1` on its boundary.
+    fn with_1(pts: &mut [DVec3], q1: DVec3) -> B {
+        let mut b = B { c: q1, r2: 0.0 };
+        for j in 0..pts.len() {
+            if !b.contains(pts[j]) {
+                let q2 = pts[j];
+                b = with_2(&mut pts[..j], q1, q2);
+                pts[..=j].rotate_right(1);
+            }
+        }
+        b
+    }
+
+    /// Minimal ball of `pts` with `q1`, `q2` on its boundary.
+    fn with_2(pts: &mut [DVec3], q1: DVec3, q2: DVec3) -> B {
+        let mut b = diametral(q1, q2);
+        for k in 0..pts.len() {
+            if !b.contains(pts[k]) {
+                let q3 = pts[k];
+                b = with_3(&mut pts[..k], q1, q2, q3);
+                pts[..=k].rotate_right(1);
+            }
+        }
+        b
+    }
+
+    /// Minimal ball of `pts` with `q1`, `q2`, `q3` on its boundary.
+    fn with_3(pts: &mut [DVec3], q1: DVec3, q2: DVec3, q3: DVec3) -> B {
+        let mut b = circum3(q1, q2, q3);
+        for l in 0..pts.len() {
+            if !b.contains(pts[l]) {
+                b = circum4(q1, q2, q3, pts[l]);
+                pts[..=l].rotate_right(1);
+            }
+        }
+        b
+    }
+
+    fn diametral(a: DVec3, b: DVec3) -> B {
+        let c = (a + b) * 0.5;
+        B {
+            c,
+            r2: (a - c).length_squared().max((b - c).length_squared()),
+        }
+    }
+
+    /// The smallest sphere through three points: its centre lies in their plane.
+    fn circum3(q1: DVec3, q2: DVec3, q3: DVec3) -> B {
+        let (a, b) = (q2 - q1, q3 - q1);
+        let axb = a.cross(b);
+        let d = 2.0 * axb.length_squared();
+        // Collinear (or coincident): no circle through them.
+        if d <= 1e-24 * a.length_squared() * b.length_squared() || d == 0.0 {
+            return smallest_enclosing(&[q1, q2, q3]);
+        }
+        let c = q1 + (a.length_squared() * b - b.length_squared() * a).cross(axb) / d;
+        with_radius(c, &[q1, q2, q3])
+    }
+
+    /// The sphere through four points.
+    fn circum4(q1: DVec3, q2: DVec3, q3: DVec3, q4: DVec3) -> B {
+        let (a, b, c) = (q2 - q1, q3 - q1, q4 - q1);
+        let bxc = b.cross(c);
+        let det = 2.0 * a.dot(bxc);
+        // Coplanar: in exact arithmetic the recursion never asks for this, but rounding can.
+        if det.abs() <= 1e-12 * a.length() * b.length() * c.length() || det == 0.0 {
+            return smallest_enclosing(&[q1, q2, q3, q4]);
+        }
+        let center =
+            q1 + (a.length_squared() * bxc + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b)) / det;
+        with_radius(center, &[q1, q2, q3, q4])
+    }
+
+    /// The ball at `c` through the farthest of `qs`, so that all of them are inside.
+    fn with_radius(c: DVec3, qs: &[DVec3]) -> B {
+        B {
+            c,
+            r2: qs.iter().map(|q| (*q - c).length_squared()).fold(0.0, f64::max),
+        }
+    }
+
+    /// Smallest ball containing 3 or 4 (degenerate) points, by trying the balls on pairs and on
+    /// non-degenerate triples.
+    fn smallest_enclosing(qs: &[DVec3]) -> B {
+        let mut best: Option<B> = None;
+        let mut consider = |b: B| {
+            if qs.iter().all(|&q| b.contains(q)) && best.map_or(true, |x| b.r2 < x.r2) {
+                best = Some(b);
+            }
+        };
+        for i in 0..qs.len() {
+            for j in i + 1..qs.len() {
+                consider(diametral(qs[i], qs[j]));
+                for k in j + 1..qs.len() {
+                    let (a, b) = (qs[j] - qs[i], qs[k] - qs[i]);
+                    let axb = a.cross(b);
+                    let d = 2.0 * axb.length_squared();
+                    if d > 1e-24 * a.length_squared() * b.length_squared() && d > 0.0 {
+                        let c = qs[i] + (a.length_squared() * b - b.length_squared() * a).cross(axb) / d;
+                        consider(with_radius(c, &[qs[i], qs[j], qs[k]]));
+                    }
+                }
+            }
+        }
+        best.unwrap_or_else(|| {
+            let centroid = qs.iter().copied().sum::<DVec3>() / qs.len() as f64;
+            with_radius(centroid, qs)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Leaf count by the definition, to check the closed-form walk.
+    fn leaf_count_by_recursion(n: usize, leaf: usize) -> usize {
+        if n <= leaf {
+            1
+        } else {
+            leaf_count_by_recursion(n / 2, leaf) + leaf_count_by_recursion(n - n / 2, leaf)
+        }
+    }
+
+    #[test]
+    fn leaf_count_matches_the_recursion() {
+        for leaf in 1..40 {
+            for n in 1..3000 {
+                assert_eq!(
+                    leaf_count(n, leaf),
+                    leaf_count_by_recursion(n, leaf),
+                    "n {n} leaf {leaf}"
+                );
+            }
+        }
+        assert_eq!(leaf_count(1 << 20, 16), 1 << 16);
+    }
+
+    #[test]
+    fn welzl_on_small_sets() {
+        let pts = [Vec3::X, -Vec3::X, Vec3::Y * 0.5, Vec3::Z * 0.1];
+        let b = reference::min_enclosing_sphere(&pts).unwrap();
+        assert!((b.radius - 1.0).abs() < 1e-12 && b.center.length() < 1e-12);
+        // A regular tetrahedron's circumsphere.
+        let t = [
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+            Vec3::new(-1.0, 1.0, -1.0),
+            Vec3::new(-1.0, -1.0, 1.0),
+        ];
+        let b = reference::min_enclosing_sphere(&t).unwrap();
+        assert!((b.radius - 3f64.sqrt()).abs() < 1e-12);
+        let b = reference::min_enclosing_sphere(&[Vec3::ONE; 5]).unwrap();
+        assert_eq!(b.radius, 0.0);
+        assert!(reference::min_enclosing_sphere(&[]).is_none());
+    }
+}

@@ -1,0 +1,435 @@
+//! The `.vps` file: a pointshell laid out for zero-copy use (format in `docs/FORMAT.md`).
+//!
+//! Header, then points (`[f32; 3]` each, tree order), normals (`[f32; 3]`), and sphere-tree
+//! nodes ([`SphereNode`], 48 bytes), each section 16-byte aligned and covered by its own CRC.
+//! Opening maps the file, checks every checksum and the tree's structure (so the query can
+//! index without bounds surprises), and then serves the three sections as slices of the
+//! mapping.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+
+use super::{mmap::map_file, StorageError};
+use crate::pointshell::{Pointshell, PointshellStats, SphereNode, SphereTree};
+
+/// First bytes of every `.vps` file.
+pub const PS_MAGIC: [u8; 8] = *b"VPSPSHL\x1a";
+/// Format version this build writes and reads.
+pub const PS_VERSION: u32 = 1;
+/// Bytes of the header.
+pub const PS_HEADER_BYTES: usize = std::mem::size_of::<RawPsHeader>();
+const NODE_BYTES: u64 = std::mem::size_of::<SphereNode>() as u64;
+const ALIGN: u64 = 16;
+
+/// The header as stored: little-endian, `#[repr(C)]`, no implicit padding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct RawPsHeader {
+    /// [`PS_MAGIC`].
+    pub magic: [u8; 8],
+    /// [`PS_VERSION`].
+    pub version: u32,
+    /// [`PS_HEADER_BYTES`].
+    pub header_bytes: u32,
+    /// Points are relative to this position of the object's frame.
+    pub origin: [f64; 3],
+    /// Voxel size the points were sampled at.
+    pub voxel_size: f64,
+    /// Number of points (and normals).
+    pub points: u64,
+    /// Number of tree nodes.
+    pub nodes: u64,
+    /// Depth of the tree (0 for a lone root; 0 and no nodes for no points).
+    pub tree_depth: u32,
+    /// Largest number of points in a leaf.
+    pub leaf_size: u32,
+    /// Points projected inside a triangle (phase 1).
+    pub interior_points: u64,
+    /// Points recovered from edges and vertices (phase 2).
+    pub boundary_points_recovered: u64,
+    /// Normals taken from the oriented triangle normal.
+    pub normal_fallbacks: u64,
+    /// Surface voxels the voxmap did not hold as surface.
+    pub voxmap_mismatches: u64,
+    /// Byte offset of the points section.
+    pub points_offset: u64,
+    /// Byte offset of the normals section.
+    pub normals_offset: u64,
+    /// Byte offset of the nodes section.
+    pub nodes_offset: u64,
+    /// Length of the whole file.
+    pub file_bytes: u64,
+    /// CRC-32 of the points section.
+    pub points_crc: u32,
+    /// CRC-32 of the normals section.
+    pub normals_crc: u32,
+    /// CRC-32 of the nodes section.
+    pub nodes_crc: u32,
+    /// CRC-32 of the header bytes before this field.
+    pub header_crc: u32,
+}
+
+impl RawPsHeader {
+    fn compute_crc(&self) -> u32 {
+        let bytes = bytemuck::bytes_of(self);
+        crc32fast::hash(&bytes[..PS_HEADER_BYTES - 4])
+    }
+}
+
+/// The header of an open `.vps`, in plain types.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointshellHeader {
+    /// Format version.
+    pub version: u32,
+    /// Points are relative to this position.
+    pub origin: DVec3,
+    /// Voxel size the points were sampled at.
+    pub voxel_size: f64,
+    /// Number of points.
+    pub points: u64,
+    /// Number of tree nodes.
+    pub nodes: u64,
+    /// Depth of the tree.
+    pub tree_depth: u32,
+    /// Largest number of points in a leaf.
+    pub leaf_size: u32,
+    /// Generation statistics.
+    pub stats: PointshellStats,
+    /// Length of the file.
+    pub file_bytes: u64,
+}
+
+/// Where each section must lie for `points` points and `nodes` nodes.
+fn layout(points: u64, nodes: u64) -> Option<[u64; 4]> {
+    let up = |x: u64| x.checked_add(ALIGN - 1).map(|v| v / ALIGN * ALIGN);
+    let p = up(PS_HEADER_BYTES as u64)?;
+    let n = up(p.checked_add(points.checked_mul(12)?)?)?;
+    let t = up(n.checked_add(points.checked_mul(12)?)?)?;
+    let end = t.checked_add(nodes.checked_mul(NODE_BYTES)?)?;
+    Some([p, n, t, end])
+}
+
+/// Write `shell` to `path` atomically (temporary file in the same directory, then rename).
+/// Returns the file's length.
+pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: usize) -> Result<u64, StorageError> {
+    let path = path.as_ref();
+    let invalid = |what: String| StorageError::InvalidInput {
+        path: path.to_path_buf(),
+        what,
+    };
+    if shell.points.len() != shell.normals.len() {
+        return Err(invalid(format!(
+            "{} points but {} normals",
+            shell.points.len(),
+            shell.normals.len()
+        )));
+    }
+    let n = shell.points.len() as u64;
+    let nodes = shell.tree.nodes.len() as u64;
+    let [p_off, n_off, t_off, end] = layout(n, nodes).ok_or_else(|| invalid("pointshell too large".into()))?;
+    let points: &[u8] = bytemuck::cast_slice(&shell.points);
+    let normals: &[u8] = bytemuck::cast_slice(&shell.normals);
+    let tree: &[u8] = bytemuck::cast_slice(&shell.tree.nodes);
+    let mut h = RawPsHeader {
+        magic: PS_MAGIC,
+        version: PS_VERSION,
+        header_bytes: PS_HEADER_BYTES as u32,
+        origin: shell.origin.to_array(),
+        voxel_size: shell.voxel_size,
+        points: n,
+        nodes,
+        tree_depth: shell.tree.nodes.iter().map(|d| d.depth).max().unwrap_or(0),
+        leaf_size: leaf_size as u32,
+        interior_points: shell.stats.interior_points,
+        boundary_points_recovered: shell.stats.boundary_points_recovered,
+        normal_fallbacks: shell.stats.normal_fallbacks,
+        voxmap_mismatches: shell.stats.voxmap_mismatches,
+        points_offset: p_off,
+        normals_offset: n_off,
+        nodes_offset: t_off,
+        file_bytes: end,
+        points_crc: crc32fast::hash(points),
+        normals_crc: crc32fast::hash(normals),
+        nodes_crc: crc32fast::hash(tree),
+        header_crc: 0,
+    };
+    h.header_crc = h.compute_crc();
+
+    let mut bytes = Vec::with_capacity(end as usize);
+    bytes.extend_from_slice(bytemuck::bytes_of(&h));
+    for (off, section) in [(p_off, points), (n_off, normals), (t_off, tree)] {
+        bytes.resize(off as usize, 0);
+        bytes.extend_from_slice(section);
+    }
+    debug_assert_eq!(bytes.len() as u64, end);
+    write_atomically(path, &bytes)?;
+    Ok(end)
+}
+
+/// Write `bytes` to a temporary file beside `path`, sync it, and rename it over `path`.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageError> {
+    let io = |action: &'static str, source| StorageError::Io {
+        action,
+        path: path.to_path_buf(),
+        source,
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".vps-tmp-")
+        .tempfile_in(dir)
+        .map_err(|e| io("create a temporary file for", e))?;
+    tmp.write_all(bytes).map_err(|e| io("write", e))?;
+    tmp.as_file().sync_all().map_err(|e| io("sync", e))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // Temporary files are private (0600); the result should read like any other file.
+        let _ = tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    tmp.persist(path).map_err(|e| io("rename temporary file to", e.error))?;
+    Ok(())
+}
+
+enum Backing {
+    Mapped(memmap2::Mmap),
+    Owned(Box<[u64]>, usize),
+}
+
+impl Backing {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Backing::Mapped(m) => m,
+            Backing::Owned(words, len) => {
+                let all: &[u8] = bytemuck::cast_slice(words);
+                &all[..*len]
+            }
+        }
+    }
+}
+
+/// An open `.vps` file. Its sections are read in place.
+pub struct PointshellFile {
+    path: PathBuf,
+    data: Backing,
+    header: PointshellHeader,
+    sections: [std::ops::Range<usize>; 3],
+}
+
+impl PointshellFile {
+    /// Map and validate a `.vps` file.
+    pub fn open(path: impl AsRef<Path>) -> Result<PointshellFile, StorageError> {
+        let path = path.as_ref().to_path_buf();
+        let io = |action, source| StorageError::Io {
+            action,
+            path: path.clone(),
+            source,
+        };
+        let file = std::fs::File::open(&path).map_err(|e| io("open", e))?;
+        let map = map_file(&file).map_err(|e| io("map", e))?;
+        Self::validate(path.clone(), Backing::Mapped(map))
+    }
+
+    /// Validate a `.vps` held in memory (copied into aligned storage).
+    pub fn from_bytes(bytes: &[u8]) -> Result<PointshellFile, StorageError> {
+        let mut words = vec![0u64; bytes.len().div_ceil(8)].into_boxed_slice();
+        bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        Self::validate(PathBuf::from("<memory>"), Backing::Owned(words, bytes.len()))
+    }
+
+    fn validate(path: PathBuf, data: Backing) -> Result<PointshellFile, StorageError> {
+        let bytes = data.bytes();
+        let corrupt = |what: String| StorageError::Corrupt {
+            path: path.clone(),
+            what,
+        };
+        if bytes.len() < 8 || bytes[..8] != PS_MAGIC {
+            return Err(StorageError::BadMagic {
+                path: path.clone(),
+                found: bytes[..bytes.len().min(8)].to_vec(),
+            });
+        }
+        if bytes.len() < PS_HEADER_BYTES {
+            return Err(StorageError::Truncated {
+                path: path.clone(),
+                expected: PS_HEADER_BYTES as u64,
+                actual: bytes.len() as u64,
+            });
+        }
+        let h: RawPsHeader = bytemuck::pod_read_unaligned(&bytes[..PS_HEADER_BYTES]);
+        let computed = h.compute_crc();
+        if computed != h.header_crc {
+            return Err(StorageError::HeaderChecksum {
+                path: path.clone(),
+                stored: h.header_crc,
+                computed,
+            });
+        }
+        if h.version != PS_VERSION {
+            return Err(StorageError::UnsupportedVersion {
+                path: path.clone(),
+                found: h.version,
+                supported: PS_VERSION,
+            });
+        }
+        let [p, n, t, end] = layout(h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
+        if [h.points_offset, h.normals_offset, h.nodes_offset, h.file_bytes] != [p, n, t, end]
+            || h.header_bytes as usize != PS_HEADER_BYTES
+        {
+            return Err(corrupt("section offsets do not match the counts".into()));
+        }
+        if (bytes.len() as u64) < end {
+            return Err(StorageError::Truncated {
+                path: path.clone(),
+                expected: end,
+                actual: bytes.len() as u64,
+            });
+        }
+        if bytes.len() as u64 != end {
+            return Err(corrupt(format!("{} bytes after the end of the nodes", bytes.len() as u64 - end)));
+        }
+        let (p, n, t, end) = (p as usize, n as usize, t as usize, end as usize);
+        let np = h.points as usize;
+        let sections = [p..p + 12 * np, n..n + 12 * np, t..end];
+        for (range, crc, name) in [
+            (&sections[0], h.points_crc, "points"),
+            (&sections[1], h.normals_crc, "normals"),
+            (&sections[2], h.nodes_crc, "tree nodes"),
+        ] {
+            if crc32fast::hash(&bytes[range.clone()]) != crc {
+                return Err(corrupt(format!("{name} section checksum mismatch")));
+            }
+        }
+        if !(h.voxel_size.is_finite() && h.voxel_size > 0.0 && h.origin.iter().all(|c| c.is_finite())) {
+            return Err(corrupt("voxel size or origin is not finite".into()));
+        }
+        let header = PointshellHeader {
+                version: h.version,
+                origin: DVec3::from_array(h.origin),
+                voxel_size: h.voxel_size,
+                points: h.points,
+                nodes: h.nodes,
+                tree_depth: h.tree_depth,
+                leaf_size: h.leaf_size,
+            stats: PointshellStats {
+                interior_points: h.interior_points,
+                boundary_points_recovered: h.boundary_points_recovered,
+                normal_fallbacks: h.normal_fallbacks,
+                voxmap_mismatches: h.voxmap_mismatches,
+            },
+                file_bytes: h.file_bytes,
+        };
+        let f = PointshellFile {
+            header,
+            path: path.clone(),
+            sections,
+            data,
+        };
+        f.check_tree().map_err(corrupt)?;
+        Ok(f)
+    }
+
+    /// The tree must index only points and nodes that exist, children after parents, each
+    /// child's points inside its parent's: then a query can walk it without checks.
+    fn check_tree(&self) -> Result<(), String> {
+        let nodes = self.nodes();
+        let np = self.header.points;
+        if (np == 0) != nodes.is_empty() {
+            return Err(format!("{np} points but {} tree nodes", nodes.len()));
+        }
+        if let Some(root) = nodes.first() {
+            if root.point_start != 0 || root.point_count as u64 != np {
+                return Err("the root does not cover every point".into());
+            }
+        }
+        for (i, node) in nodes.iter().enumerate() {
+            let end = node.point_start as u64 + node.point_count as u64;
+            if end > np || node.point_count == 0 {
+                return Err(format!("node {i} covers points outside the shell"));
+            }
+            if !(node.radius >= 0.0 && node.radius.is_finite() && node.center.iter().all(|c| c.is_finite())) {
+                return Err(format!("node {i} has a bad sphere"));
+            }
+            if node.first_child != u32::MAX {
+                let c = node.first_child as usize;
+                if c <= i || c + 1 >= nodes.len() {
+                    return Err(format!("node {i} has children out of order or out of range"));
+                }
+                let (a, b) = (&nodes[c], &nodes[c + 1]);
+                if a.point_start != node.point_start
+                    || a.point_start as u64 + a.point_count as u64 != b.point_start as u64
+                    || b.point_start as u64 + b.point_count as u64 != end
+                {
+                    return Err(format!("node {i}'s children do not split its points"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The header.
+    pub fn header(&self) -> &PointshellHeader {
+        &self.header
+    }
+
+    /// Points relative to [`PointshellHeader::origin`], in tree order.
+    pub fn points(&self) -> &[Vec3] {
+        bytemuck::cast_slice(&self.data.bytes()[self.sections[0].clone()])
+    }
+
+    /// Unit inward normals, one per point.
+    pub fn normals(&self) -> &[Vec3] {
+        bytemuck::cast_slice(&self.data.bytes()[self.sections[1].clone()])
+    }
+
+    /// The sphere-tree nodes; node 0 is the root.
+    pub fn nodes(&self) -> &[SphereNode] {
+        bytemuck::cast_slice(&self.data.bytes()[self.sections[2].clone()])
+    }
+
+    /// Copy the whole pointshell into memory.
+    pub fn to_pointshell(&self) -> Pointshell {
+        Pointshell {
+            origin: self.header.origin,
+            voxel_size: self.header.voxel_size,
+            points: self.points().to_vec(),
+            normals: self.normals().to_vec(),
+            tree: SphereTree {
+                nodes: self.nodes().to_vec(),
+            },
+            stats: self.header.stats,
+        }
+    }
+}
+
+/// Write points with normals, in the object's frame, as a binary little-endian PLY that
+/// MeshLab, CloudCompare and Blender open. Written atomically like every other output.
+pub fn write_ply(path: impl AsRef<Path>, origin: DVec3, points: &[Vec3], normals: &[Vec3]) -> Result<u64, StorageError> {
+    let path = path.as_ref();
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment vps pointshell: normals point into the object\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nend_header\n",
+        points.len()
+    )
+    .into_bytes();
+    bytes.reserve(points.len() * 24);
+    for (p, n) in points.iter().zip(normals) {
+        let w = (origin + p.as_dvec3()).as_vec3();
+        for c in w.to_array().into_iter().chain(n.to_array()) {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    write_atomically(path, &bytes)?;
+    Ok(bytes.len() as u64)
+}
