@@ -75,11 +75,7 @@ fn workload(seed: u64, lattice: bool) -> Workload {
             let v = if k % 2 == 0 {
                 // The voxel of a point on the triangle: a sure hit.
                 let (a, b) = (rng.unit(), rng.unit());
-                let (a, b) = if a + b > 1.0 {
-                    (1.0 - a, 1.0 - b)
-                } else {
-                    (a, b)
-                };
+                let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
                 let p = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
                 p.floor().to_array().map(|x| x as i64)
             } else {
@@ -134,26 +130,18 @@ fn bench_sat(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("triangle_voxel");
     g.throughput(Throughput::Elements(PAIRS as u64));
-    g.bench_function("sat_overlaps_voxel/floats", |b| {
-        b.iter(|| sat_hits(&floats))
-    });
-    g.bench_function("sat_overlaps_voxel/sixteenths", |b| {
-        b.iter(|| sat_hits(&dyadic))
-    });
+    g.bench_function("sat_overlaps_voxel/floats", |b| b.iter(|| sat_hits(&floats)));
+    g.bench_function("sat_overlaps_voxel/sixteenths", |b| b.iter(|| sat_hits(&dyadic)));
     g.bench_function("sat_new_and_overlaps_voxel/floats", |b| {
         b.iter(|| {
             floats
                 .pairs
                 .iter()
-                .filter(|&&(i, v)| {
-                    SatTriangle::new(black_box(floats.triangles[i])).overlaps_voxel(v)
-                })
+                .filter(|&&(i, v)| SatTriangle::new(black_box(floats.triangles[i])).overlaps_voxel(v))
                 .count()
         })
     });
-    g.bench_function("clipping_reference/floats", |b| {
-        b.iter(|| reference_hits(&floats))
-    });
+    g.bench_function("clipping_reference/floats", |b| b.iter(|| reference_hits(&floats)));
     g.bench_function("clipping_reference/sixteenths_exact", |b| {
         b.iter(|| reference_hits(&dyadic))
     });

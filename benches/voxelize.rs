@@ -31,7 +31,12 @@ fn navigation(c: &mut Criterion) {
     for span in [1.0, 2.0, 4.0, 8.0, 32.0, 128.0] {
         let tris = sphere_triangles_in_grid_units(span);
         g.throughput(Throughput::Elements(tris.len() as u64));
-        for nav in [Navigation::BoundingBox, Navigation::ZRange, Navigation::Narrowing, Navigation::Auto] {
+        for nav in [
+            Navigation::BoundingBox,
+            Navigation::ZRange,
+            Navigation::Narrowing,
+            Navigation::Auto,
+        ] {
             if nav == Navigation::BoundingBox && span > 40.0 {
                 continue;
             }
@@ -60,9 +65,41 @@ fn fill_and_layers(c: &mut Criterion) {
     let mut g = c.benchmark_group("fill_and_layers");
     g.sample_size(10);
     g.throughput(Throughput::Elements(surface.bricks.len() as u64));
-    g.bench_function("flood_fill", |b| b.iter(|| black_box(Outside::flood(nb, &surface.bricks))));
-    g.bench_function("layers_5", |b| b.iter(|| black_box(distance_layers(nb, &surface.bricks, 5))));
-    g.bench_function("surface", |b| b.iter(|| black_box(mark_surface(&grid, tris, Navigation::Auto))));
+    g.bench_function("flood_fill", |b| {
+        b.iter(|| black_box(Outside::flood(nb, &surface.bricks)))
+    });
+    g.bench_function("layers_5", |b| {
+        b.iter(|| black_box(distance_layers(nb, &surface.bricks, 5)))
+    });
+    g.bench_function("surface", |b| {
+        b.iter(|| black_box(mark_surface(&grid, tris, Navigation::Auto)))
+    });
+    g.finish();
+}
+
+/// The sparse fill and layers against the dense reference on the same surface: the ratio is
+/// what sparsity buys.
+fn sparse_vs_dense(c: &mut Criterion) {
+    let mesh = shapes::demo_assembly();
+    let (lo, hi) = mesh.bounds();
+    let grid = Grid::around(lo, hi, 0.5, 7).unwrap();
+    let surface = mark_surface(&grid, &mesh.triangles, Navigation::Auto);
+    let dense_surface =
+        vps::reference::dense::dense_surface(&grid, &vps::generate::surface::to_grid_units(&grid, &mesh.triangles));
+    let nb = grid.brick_dims();
+    let mut g = c.benchmark_group("sparse_vs_dense");
+    g.sample_size(10);
+    g.bench_function("sparse_fill_and_layers", |b| {
+        b.iter(|| {
+            black_box((
+                Outside::flood(nb, &surface.bricks),
+                distance_layers(nb, &surface.bricks, 5),
+            ))
+        })
+    });
+    g.bench_function("dense_fill_and_layers", |b| {
+        b.iter(|| black_box(vps::reference::dense::dense_voxmap(grid.dims, &dense_surface, 5)))
+    });
     g.finish();
 }
 
@@ -71,11 +108,17 @@ fn pipeline(c: &mut Criterion) {
     let mut g = c.benchmark_group("voxelize");
     g.sample_size(10);
     for s in [1.0, 0.5] {
-        let params = VoxelizeParams { voxel_size: s, layers: 5, ..Default::default() };
-        g.bench_with_input(BenchmarkId::new("demo_assembly", s), &params, |b, p| b.iter(|| black_box(voxelize(&mesh, p).unwrap())));
+        let params = VoxelizeParams {
+            voxel_size: s,
+            layers: 5,
+            ..Default::default()
+        };
+        g.bench_with_input(BenchmarkId::new("demo_assembly", s), &params, |b, p| {
+            b.iter(|| black_box(voxelize(&mesh, p).unwrap()))
+        });
     }
     g.finish();
 }
 
-criterion_group!(benches, navigation, fill_and_layers, pipeline);
+criterion_group!(benches, navigation, fill_and_layers, sparse_vs_dense, pipeline);
 criterion_main!(benches);

@@ -32,9 +32,7 @@ pub enum GridError {
         max: [f64; 3],
     },
     /// The grid would have more voxels along an axis than the format can address.
-    #[error(
-        "grid would need {0} voxels along one axis (limit {MAX_DIM}): use a larger voxel size"
-    )]
+    #[error("grid would need {0} voxels along one axis (limit {MAX_DIM}): use a larger voxel size")]
     TooLarge(u64),
 }
 
@@ -110,11 +108,7 @@ impl Grid {
         let n = self.brick_dims();
         let z = key % n[2] as u64;
         let xy = key / n[2] as u64;
-        [
-            (xy / n[1] as u64) as u32,
-            (xy % n[1] as u64) as u32,
-            z as u32,
-        ]
+        [(xy / n[1] as u64) as u32, (xy % n[1] as u64) as u32, z as u32]
     }
 
     /// The voxel that contains world point `p`, or `None` beyond the grid.
@@ -166,13 +160,7 @@ mod tests {
 
     #[test]
     fn around_is_padded_aligned_and_whole_bricks() {
-        let g = Grid::around(
-            DVec3::new(0.3, -5.0, 10.0),
-            DVec3::new(9.7, 2.0, 10.0),
-            0.5,
-            7,
-        )
-        .unwrap();
+        let g = Grid::around(DVec3::new(0.3, -5.0, 10.0), DVec3::new(9.7, 2.0, 10.0), 0.5, 7).unwrap();
         for a in 0..3 {
             assert_eq!(g.dims[a] % BRICK, 0);
             let o = g.origin[a] / (0.5 * BRICK as f64);

@@ -9,7 +9,7 @@
 //! - [`generate`]: mesh → voxmap;
 //! - [`storage`]: the `.vxm` file, memory-mapped (format in `docs/FORMAT.md`);
 //! - [`render`]: pictures of slices;
-//! - [`reference`]: slow, obvious versions of the fast paths, for tests and benchmarks.
+//! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
 #![cfg(target_endian = "little")]
 
 pub mod generate;

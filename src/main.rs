@@ -17,11 +17,7 @@ use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
 use vps::voxmap::Voxmap;
 
 #[derive(Parser)]
-#[command(
-    name = "vps",
-    version,
-    about = "Voxmap-PointShell haptic data structures"
-)]
+#[command(name = "vps", version, about = "Voxmap-PointShell haptic data structures")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -178,10 +174,7 @@ enum Command {
 fn main() {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("VPS_LOG")
-                .unwrap_or_else(|_| "warn".into()),
-        )
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("VPS_LOG").unwrap_or_else(|_| "warn".into()))
         .init();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
@@ -252,10 +245,7 @@ fn run(cli: Cli) -> Result<()> {
             println!("wrote {} ({w}×{h} voxels)", output.display());
             Ok(())
         }
-        Command::Demo {
-            out_dir,
-            voxel_size,
-        } => demo(&out_dir, voxel_size),
+        Command::Demo { out_dir, voxel_size } => demo(&out_dir, voxel_size),
         Command::Bench {
             mesh,
             targets,
@@ -263,14 +253,7 @@ fn run(cli: Cli) -> Result<()> {
             layers,
             navigation,
             json,
-        } => bench(
-            mesh.as_deref(),
-            &targets,
-            &voxel_sizes,
-            layers,
-            &navigation,
-            json,
-        ),
+        } => bench(mesh.as_deref(), &targets, &voxel_sizes, layers, &navigation, json),
     }
 }
 
@@ -279,10 +262,7 @@ fn params(voxel_size: f64, layers: u32, navigation: Navigation) -> Result<Voxeli
         bail!("--voxel-size must be a positive number, got {voxel_size}");
     }
     if layers > vps::voxmap::MAX_LAYERS as u32 {
-        bail!(
-            "--layers must be at most {}, got {layers}",
-            vps::voxmap::MAX_LAYERS
-        );
+        bail!("--layers must be at most {}, got {layers}", vps::voxmap::MAX_LAYERS);
     }
     Ok(VoxelizeParams {
         voxel_size,
@@ -293,10 +273,7 @@ fn params(voxel_size: f64, layers: u32, navigation: Navigation) -> Result<Voxeli
 
 fn spinner(msg: &str) -> ProgressBar {
     let pb = ProgressBar::new_spinner();
-    pb.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-            .expect("static template"),
-    );
+    pb.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}").expect("static template"));
     pb.enable_steady_tick(Duration::from_millis(120));
     pb.set_message(msg.to_string());
     pb
@@ -307,10 +284,7 @@ fn load_mesh(path: &Path) -> Result<Mesh> {
     let mesh = Mesh::load_obj(path)?;
     pb.finish_and_clear();
     if mesh.degenerate_skipped > 0 {
-        eprintln!(
-            "note: skipped {} degenerate triangles",
-            mesh.degenerate_skipped
-        );
+        eprintln!("note: skipped {} degenerate triangles", mesh.degenerate_skipped);
     }
     Ok(mesh)
 }
@@ -325,8 +299,7 @@ fn voxelize_to_file(
     let phase = |p: &str| pb.set_message(format!("voxelizing: {p}"));
     let (vm, report) = voxelize_with(mesh, params, &phase)?;
     pb.set_message(format!("writing {}", output.display()));
-    let write =
-        write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
+    let write = write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
     pb.finish_and_clear();
     if report.leaks {
         eprintln!(
@@ -338,14 +311,7 @@ fn voxelize_to_file(
     Ok((vm, report, write, start.elapsed().as_secs_f64()))
 }
 
-fn print_voxelize_summary(
-    output: &Path,
-    vm: &Voxmap,
-    r: &VoxelizeReport,
-    w: &WriteReport,
-    secs: f64,
-    json: bool,
-) {
+fn print_voxelize_summary(output: &Path, vm: &Voxmap, r: &VoxelizeReport, w: &WriteReport, secs: f64, json: bool) {
     let g = vm.grid();
     let c = vm.counts();
     let sat_per_surface = r.nav.sat_tests as f64 / r.surface_voxels.max(1) as f64;
@@ -404,10 +370,7 @@ fn print_voxelize_summary(
             r.t_layers.as_secs_f64()
         );
         if let Some(rss) = peak_rss_bytes() {
-            println!(
-                "  peak RSS         {:.1} MiB",
-                rss as f64 / (1 << 20) as f64
-            );
+            println!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);
         }
     }
 }
@@ -453,10 +416,7 @@ fn info(path: &Path, json: bool) -> Result<()> {
             g.voxel_count()
         );
         println!("  voxel size       {}", g.voxel_size);
-        println!(
-            "  origin           {} {} {}",
-            g.origin.x, g.origin.y, g.origin.z
-        );
+        println!("  origin           {} {} {}", g.origin.x, g.origin.y, g.origin.z);
         println!("  layers           {}", h.layers);
         println!("  surface voxels   {}", c.surface_voxels);
         println!("  inner voxels     {}", c.inner_voxels);
@@ -478,8 +438,7 @@ fn probe(path: &Path, points: &Path) -> Result<()> {
         Box::new(std::io::stdin().lock())
     } else {
         Box::new(std::io::BufReader::new(
-            std::fs::File::open(points)
-                .with_context(|| format!("cannot read points {}", points.display()))?,
+            std::fs::File::open(points).with_context(|| format!("cannot read points {}", points.display()))?,
         ))
     };
     let mut out = BufWriter::new(std::io::stdout().lock());
@@ -511,13 +470,7 @@ fn probe(path: &Path, points: &Path) -> Result<()> {
 }
 
 /// Extract a slice and write its picture; returns its size in voxels.
-fn slice(
-    f: &VoxmapFile,
-    axis: Axis,
-    at: Option<f64>,
-    index: Option<u32>,
-    output: &Path,
-) -> Result<(u32, u32)> {
+fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output: &Path) -> Result<(u32, u32)> {
     let g = *f.grid();
     let a = axis as usize;
     let k = match (at, index) {
@@ -526,10 +479,7 @@ fn slice(
         (None, None) => bail!("give --at or --index"),
     };
     if k < 0 || k >= g.dims[a] as i64 {
-        bail!(
-            "slice {k} along {axis:?} is outside the grid (0..{})",
-            g.dims[a]
-        );
+        bail!("slice {k} along {axis:?} is outside the grid (0..{})", g.dims[a]);
     }
     // Image axes: z-slices show x across and y up; x-slices y across and z up; y-slices x across, z up.
     let (u, v) = match axis {
@@ -598,39 +548,20 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
         DVec3::new(-100.0, 0.0, 0.0),
     ];
     for p in probes {
-        println!(
-            "  value at ({}, {}, {}) = {}",
-            p.x,
-            p.y,
-            p.z,
-            f.value_at(p)?
-        );
+        println!("  value at ({}, {}, {}) = {}", p.x, p.y, p.z, f.value_at(p)?);
     }
     Ok(())
 }
 
-fn bench(
-    mesh: Option<&Path>,
-    targets: &[f64],
-    sizes: &[f64],
-    layers: u32,
-    navs: &[NavArg],
-    json: bool,
-) -> Result<()> {
+fn bench(mesh: Option<&Path>, targets: &[f64], sizes: &[f64], layers: u32, navs: &[NavArg], json: bool) -> Result<()> {
     let (mesh, name) = match mesh {
         Some(p) => (load_mesh(p)?, p.display().to_string()),
-        None => (
-            vps::shapes::demo_assembly(),
-            "built-in assembly".to_string(),
-        ),
+        None => (vps::shapes::demo_assembly(), "built-in assembly".to_string()),
     };
     let (lo, hi) = mesh.bounds();
     let ext = hi - lo;
     let sizes: Vec<f64> = if sizes.is_empty() {
-        targets
-            .iter()
-            .map(|t| (ext.x * ext.y * ext.z / t).cbrt())
-            .collect()
+        targets.iter().map(|t| (ext.x * ext.y * ext.z / t).cbrt()).collect()
     } else {
         sizes.to_vec()
     };
@@ -706,7 +637,10 @@ fn reset_peak_rss() {
 fn is_pointshell(path: &Path) -> bool {
     use std::io::Read;
     let mut magic = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == PS_MAGIC
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok()
+        && magic == PS_MAGIC
 }
 
 fn open_pointshell(path: &Path) -> Result<PointshellFile> {
@@ -731,7 +665,9 @@ fn make_pointshell(
     let pb = spinner("pointshell: voxmap");
     let vm = match voxmap {
         Some(p) => {
-            let vm = open(p)?.to_voxmap().with_context(|| format!("reading {}", p.display()))?;
+            let vm = open(p)?
+                .to_voxmap()
+                .with_context(|| format!("reading {}", p.display()))?;
             if (vm.grid().voxel_size - voxel_size).abs() > 1e-12 * voxel_size {
                 bail!(
                     "{} has voxel size {}, not the --voxel-size {voxel_size} asked for",
@@ -772,13 +708,21 @@ fn make_pointshell(
                 "seconds": secs,
                 "voxmap_seconds": t_voxmap,
                 "pointshell_seconds": t_shell,
+                "project_seconds": report.t_project.as_secs_f64(),
+                "normals_seconds": report.t_normals.as_secs_f64(),
+                "tree_seconds": report.t_tree.as_secs_f64(),
                 "points_per_second": shell.len() as f64 / t_shell,
                 "peak_rss_bytes": peak_rss_bytes(),
             })
         );
     } else {
         println!("wrote {}", output.display());
-        println!("  points           {} ({} interior, {} recovered from edges and vertices)", shell.len(), s.interior_points, s.boundary_points_recovered);
+        println!(
+            "  points           {} ({} interior, {} recovered from edges and vertices)",
+            shell.len(),
+            s.interior_points,
+            s.boundary_points_recovered
+        );
         println!("  normal fallbacks {}", s.normal_fallbacks);
         println!("  tree             {} nodes, depth {}", ts.nodes, ts.depth);
         println!("  file             {bytes} bytes");
@@ -788,7 +732,10 @@ fn make_pointshell(
         );
     }
     if s.voxmap_mismatches > 0 {
-        eprintln!("warning: {} surface voxels of the mesh are not surface in the voxmap: is it the voxmap of this mesh?", s.voxmap_mismatches);
+        eprintln!(
+            "warning: {} surface voxels of the mesh are not surface in the voxmap: is it the voxmap of this mesh?",
+            s.voxmap_mismatches
+        );
     }
     Ok(())
 }
@@ -818,9 +765,15 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
     } else {
         println!("{}: pointshell format {}", path.display(), h.version);
         println!("  points           {} at voxel size {}", h.points, h.voxel_size);
-        println!("  phases           {} interior, {} recovered from edges and vertices", s.interior_points, s.boundary_points_recovered);
+        println!(
+            "  phases           {} interior, {} recovered from edges and vertices",
+            s.interior_points, s.boundary_points_recovered
+        );
         println!("  normal fallbacks {}", s.normal_fallbacks);
-        println!("  tree             {} nodes, depth {}, leaves of at most {} points", h.nodes, h.tree_depth, h.leaf_size);
+        println!(
+            "  tree             {} nodes, depth {}, leaves of at most {} points",
+            h.nodes, h.tree_depth, h.leaf_size
+        );
         println!("  bytes            {}", h.file_bytes);
     }
     Ok(())

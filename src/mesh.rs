@@ -82,21 +82,14 @@ pub fn is_degenerate(t: &Triangle) -> bool {
 
 impl Mesh {
     /// A mesh of one object from triangles; degenerate ones are skipped and counted.
-    pub fn from_triangles(
-        name: &str,
-        triangles: impl IntoIterator<Item = Triangle>,
-    ) -> Result<Mesh, MeshError> {
+    pub fn from_triangles(name: &str, triangles: impl IntoIterator<Item = Triangle>) -> Result<Mesh, MeshError> {
         let mut mesh = Mesh::default();
         mesh.push_object(name, triangles)?;
         mesh.check_nonempty()
     }
 
     /// Append an object; degenerate triangles are skipped, non-finite vertices are an error.
-    pub fn push_object(
-        &mut self,
-        name: &str,
-        triangles: impl IntoIterator<Item = Triangle>,
-    ) -> Result<(), MeshError> {
+    pub fn push_object(&mut self, name: &str, triangles: impl IntoIterator<Item = Triangle>) -> Result<(), MeshError> {
         let start = self.triangles.len();
         for (i, t) in triangles.into_iter().enumerate() {
             if let Some(k) = (0..3).find(|&k| !t[k].is_finite()) {
@@ -168,8 +161,8 @@ impl Mesh {
             ignore_lines: true,
         };
         // Materials do not matter for voxelization; a missing .mtl must not fail the load.
-        let (models, _) = tobj::load_obj_buf(reader, &options, |_| Ok(Default::default()))
-            .map_err(|e| MeshError::Obj {
+        let (models, _) =
+            tobj::load_obj_buf(reader, &options, |_| Ok(Default::default())).map_err(|e| MeshError::Obj {
                 where_: None,
                 reason: e.to_string(),
             })?;
@@ -316,7 +309,11 @@ mod tests {
         assert_eq!(m.triangles.len(), 1);
         // Found by fuzzing: an out-of-range relative normal index overflowed inside tobj.
         assert!(Mesh::from_obj_bytes(b"v 0 0 0\nvn 2 3 4\nf 1//-6 1 1\n").is_err());
-        for bad in [&b"v 0 0 0\nf -6 1 1\n"[..], b"v 0 0 0\nf 1 2 99999999999999999999\n", b"f\n"] {
+        for bad in [
+            &b"v 0 0 0\nf -6 1 1\n"[..],
+            b"v 0 0 0\nf 1 2 99999999999999999999\n",
+            b"f\n",
+        ] {
             let _ = Mesh::from_obj_bytes(bad);
         }
     }
@@ -330,10 +327,7 @@ mod tests {
             Mesh::from_obj_bytes(b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"),
             Err(MeshError::Empty { degenerate: 1 })
         ));
-        assert!(matches!(
-            Mesh::from_obj_bytes(b""),
-            Err(MeshError::Empty { .. })
-        ));
+        assert!(matches!(Mesh::from_obj_bytes(b""), Err(MeshError::Empty { .. })));
         assert!(matches!(
             Mesh::from_obj_bytes(b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
             Err(MeshError::NonFinite { .. }) | Err(MeshError::Obj { .. })

@@ -185,20 +185,13 @@ fn shrink_values(values: &[i8], width: u32, height: u32, d: u32) -> (Vec<i8>, u3
 /// enlarged with nearest neighbour until its longer side reaches [`MIN_LONG_SIDE`] pixels, or
 /// shrunk (see [`MAX_LONG_SIDE`]) keeping the value nearest the surface in each block. The
 /// legend band, [`LEGEND_HEIGHT`] pixels, lies under the slice.
-pub fn slice_rgba(
-    values: &[i8],
-    width: u32,
-    height: u32,
-    layers: u8,
-) -> Result<RgbaImage, RenderError> {
+pub fn slice_rgba(values: &[i8], width: u32, height: u32, layers: u8) -> Result<RgbaImage, RenderError> {
     let bad = || RenderError::BadSize {
         width,
         height,
         len: values.len(),
     };
-    let count = (width as usize)
-        .checked_mul(height as usize)
-        .ok_or_else(bad)?;
+    let count = (width as usize).checked_mul(height as usize).ok_or_else(bad)?;
     if count == 0 || count != values.len() {
         return Err(bad());
     }
@@ -359,13 +352,7 @@ fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
 /// Arguments as for [`slice_rgba`]. The file is written under a temporary name in the same
 /// directory and renamed into place, so a reader never sees half a PNG and an old picture is
 /// only replaced by a complete new one.
-pub fn slice_png(
-    values: &[i8],
-    width: u32,
-    height: u32,
-    layers: u8,
-    path: &Path,
-) -> Result<(), RenderError> {
+pub fn slice_png(values: &[i8], width: u32, height: u32, layers: u8, path: &Path) -> Result<(), RenderError> {
     let img = slice_rgba(values, width, height, layers)?;
     let bytes = encode_png(&img)?;
     let io = |source| RenderError::Io {
@@ -446,10 +433,7 @@ mod tests {
             .map(|(x, y)| img.rgb(x, y))
             .collect();
         for v in all_values(n) {
-            assert!(
-                legend.contains(&value_colour(v, n)),
-                "value {v} missing from legend"
-            );
+            assert!(legend.contains(&value_colour(v, n)), "value {v} missing from legend");
         }
         assert!(legend.contains(&TEXT));
         // The slice area itself holds only the far colour.
@@ -513,10 +497,7 @@ mod tests {
             slice_rgba(&[0; 5], 2, 3, 1),
             Err(RenderError::BadSize { len: 5, .. })
         ));
-        assert!(matches!(
-            slice_rgba(&[], 0, 3, 1),
-            Err(RenderError::BadSize { .. })
-        ));
+        assert!(matches!(slice_rgba(&[], 0, 3, 1), Err(RenderError::BadSize { .. })));
         assert!(matches!(
             slice_rgba(&[0], u32::MAX, u32::MAX, 1),
             Err(RenderError::BadSize { .. })

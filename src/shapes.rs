@@ -107,30 +107,19 @@ pub fn demo_assembly() -> Mesh {
     let mut m = Mesh::default();
     let parts: Vec<(&str, Vec<Triangle>)> = vec![
         ("sphere", sphere(DVec3::new(30.0, 30.0, 30.0), 20.0, 48, 96)),
-        (
-            "torus",
-            torus(DVec3::new(85.0, 30.0, 30.0), 20.0, 7.0, 96, 32),
-        ),
+        ("torus", torus(DVec3::new(85.0, 30.0, 30.0), 20.0, 7.0, 96, 32)),
         (
             "block",
             cuboid(DVec3::new(20.0, 70.0, 10.0), DVec3::new(60.0, 100.0, 40.0)),
         ),
         (
             "shell",
-            hollow_box(
-                DVec3::new(70.0, 65.0, 5.0),
-                DVec3::new(115.0, 110.0, 50.0),
-                2.0,
-            ),
+            hollow_box(DVec3::new(70.0, 65.0, 5.0), DVec3::new(115.0, 110.0, 50.0), 2.0),
         ),
-        (
-            "sheet",
-            open_hemisphere(DVec3::new(60.0, 50.0, 55.0), 15.0, 16, 48),
-        ),
+        ("sheet", open_hemisphere(DVec3::new(60.0, 50.0, 55.0), 15.0, 16, 48)),
     ];
     for (name, tris) in parts {
-        m.push_object(name, tris)
-            .expect("built-in shapes are finite");
+        m.push_object(name, tris).expect("built-in shapes are finite");
     }
     m
 }

@@ -9,7 +9,10 @@ use vps::mesh::Triangle;
 use vps::shapes;
 
 fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps")).args(args).output().expect("run vps")
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(args)
+        .output()
+        .expect("run vps")
 }
 
 fn stdout(o: &Output) -> String {
@@ -59,11 +62,23 @@ fn fixture() -> Fixture {
         &obj,
         &[
             ("ball", shapes::sphere(DVec3::ZERO, 10.0, 32, 64)),
-            ("block", shapes::cuboid(DVec3::new(15.0, -5.0, -5.0), DVec3::new(25.0, 5.0, 5.0))),
+            (
+                "block",
+                shapes::cuboid(DVec3::new(15.0, -5.0, -5.0), DVec3::new(25.0, 5.0, 5.0)),
+            ),
         ],
     );
     let vxm = dir.path().join("model.vxm");
-    let o = vps(&["voxelize", p(&obj), "--voxel-size", "0.5", "--layers", "4", "-o", p(&vxm)]);
+    let o = vps(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "0.5",
+        "--layers",
+        "4",
+        "-o",
+        p(&vxm),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("surface voxels"));
     Fixture { _dir: dir, obj, vxm }
@@ -89,8 +104,16 @@ fn info_json_has_the_promised_fields() {
     assert_eq!(j["voxel_size"], 0.5);
     assert_eq!(j["layers"], 4);
     assert!(j["inner_voxels"].as_u64().unwrap() > 0);
-    assert_eq!(j["file_bytes"].as_u64().unwrap(), std::fs::metadata(&f.vxm).unwrap().len());
-    let origin: Vec<f64> = j["origin"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(
+        j["file_bytes"].as_u64().unwrap(),
+        std::fs::metadata(&f.vxm).unwrap().len()
+    );
+    let origin: Vec<f64> = j["origin"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
     for o in origin {
         assert_eq!((o / 0.5).fract(), 0.0, "origin snapped to the voxel size");
     }
@@ -155,10 +178,34 @@ fn bad_input_fails_cleanly_without_output() {
     let dir = f.obj.parent().unwrap();
     let out = dir.join("never.vxm");
     let cases: Vec<(Vec<String>, &str)> = vec![
-        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "0".into()], "voxel-size"),
-        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "-1".into()], "voxel-size"),
-        (vec!["voxelize".into(), dir.join("missing.obj").to_str().unwrap().into(), "--voxel-size".into(), "1".into()], "missing.obj"),
-        (vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "1".into(), "--layers".into(), "127".into()], "layers"),
+        (
+            vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "0".into()],
+            "voxel-size",
+        ),
+        (
+            vec!["voxelize".into(), p(&f.obj).into(), "--voxel-size".into(), "-1".into()],
+            "voxel-size",
+        ),
+        (
+            vec![
+                "voxelize".into(),
+                dir.join("missing.obj").to_str().unwrap().into(),
+                "--voxel-size".into(),
+                "1".into(),
+            ],
+            "missing.obj",
+        ),
+        (
+            vec![
+                "voxelize".into(),
+                p(&f.obj).into(),
+                "--voxel-size".into(),
+                "1".into(),
+                "--layers".into(),
+                "127".into(),
+            ],
+            "layers",
+        ),
     ];
     for (mut args, needle) in cases {
         args.extend(["-o".into(), p(&out).into()]);
@@ -205,7 +252,15 @@ fn huge_sparse_grid_stays_small_in_memory() {
     let obj = dir.path().join("scatter.obj");
     write_obj(&obj, &[("scatter", shapes::scattered_triangles(2000, 2400.0, 4.0, 7))]);
     let out = dir.path().join("scatter.vxm");
-    let j = json(&vps(&["voxelize", p(&obj), "--voxel-size", "1", "-o", p(&out), "--json"]));
+    let j = json(&vps(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "1",
+        "-o",
+        p(&out),
+        "--json",
+    ]));
     let voxels = j["grid_voxels"].as_u64().unwrap();
     assert!(voxels >= 10_000_000_000, "grid has only {voxels} voxels");
     let rss = j["peak_rss_bytes"].as_u64().expect("peak RSS is reported on Linux");

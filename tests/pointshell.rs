@@ -33,7 +33,11 @@ fn distance_to_mesh(mesh: &Mesh, p: DVec3) -> f64 {
 
 fn check_points(mesh: &Mesh, vm: &Voxmap, ps: &Pointshell) {
     let s = vm.grid().voxel_size;
-    assert_eq!(ps.len() as u64, vm.counts().surface_voxels, "one point per surface voxel");
+    assert_eq!(
+        ps.len() as u64,
+        vm.counts().surface_voxels,
+        "one point per surface voxel"
+    );
     assert_eq!(
         ps.stats.interior_points + ps.stats.boundary_points_recovered,
         ps.len() as u64
@@ -57,7 +61,10 @@ fn check_points(mesh: &Mesh, vm: &Voxmap, ps: &Pointshell) {
                 }
             }
         }
-        assert!(best <= 3f64.sqrt() / 2.0 * s * (1.0 + 1e-5), "point {i}: {best} from any surface voxel centre");
+        assert!(
+            best <= 3f64.sqrt() / 2.0 * s * (1.0 + 1e-5),
+            "point {i}: {best} from any surface voxel centre"
+        );
         let n = ps.normals[i];
         assert!((n.length() - 1.0).abs() < 1e-5, "normal {i} is not unit: {n:?}");
     }
@@ -75,12 +82,20 @@ fn sphere_points_are_on_the_mesh_with_inward_normals() {
     let mut sum = 0.0;
     for i in 0..ps.len() {
         let to_centre = (c - ps.point(i)).normalize();
-        let angle = ps.normals[i].as_dvec3().dot(to_centre).clamp(-1.0, 1.0).acos().to_degrees();
+        let angle = ps.normals[i]
+            .as_dvec3()
+            .dot(to_centre)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
         worst = worst.max(angle);
         sum += angle;
     }
     let mean = sum / ps.len() as f64;
-    eprintln!("sphere normals: mean {mean:.2}°, worst {worst:.2}° over {} points", ps.len());
+    eprintln!(
+        "sphere normals: mean {mean:.2}°, worst {worst:.2}° over {} points",
+        ps.len()
+    );
     assert!(mean < 4.0, "mean angle {mean}");
     assert!(worst < 15.0, "worst angle {worst}");
     assert_eq!(ps.stats.normal_fallbacks, 0);
@@ -90,8 +105,13 @@ fn sphere_points_are_on_the_mesh_with_inward_normals() {
 #[test]
 fn torus_box_and_assembly_cover_every_surface_voxel() {
     let mut mesh = Mesh::default();
-    mesh.push_object("t", shapes::torus(DVec3::ZERO, 8.0, 3.0, 48, 16)).unwrap();
-    mesh.push_object("b", shapes::cuboid(DVec3::new(12.0, -3.0, -3.0), DVec3::new(18.0, 3.0, 3.0))).unwrap();
+    mesh.push_object("t", shapes::torus(DVec3::ZERO, 8.0, 3.0, 48, 16))
+        .unwrap();
+    mesh.push_object(
+        "b",
+        shapes::cuboid(DVec3::new(12.0, -3.0, -3.0), DVec3::new(18.0, 3.0, 3.0)),
+    )
+    .unwrap();
     let (vm, ps) = make(&mesh, 0.4);
     check_points(&mesh, &vm, &ps);
 }
@@ -129,7 +149,14 @@ fn box_normals_are_axis_aligned_away_from_edges() {
 #[test]
 fn same_pointshell_on_any_thread_count() {
     let mesh = shapes::demo_assembly();
-    let (vm, _) = voxelize(&mesh, &VoxelizeParams { voxel_size: 1.0, ..Default::default() }).unwrap();
+    let (vm, _) = voxelize(
+        &mesh,
+        &VoxelizeParams {
+            voxel_size: 1.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let run = |threads| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -146,6 +173,13 @@ fn same_pointshell_on_any_thread_count() {
 fn a_voxmap_of_another_mesh_is_refused() {
     let small = Mesh::from_triangles("s", shapes::sphere(DVec3::ZERO, 2.0, 8, 16)).unwrap();
     let big = Mesh::from_triangles("b", shapes::sphere(DVec3::ZERO, 50.0, 8, 16)).unwrap();
-    let (vm, _) = voxelize(&small, &VoxelizeParams { voxel_size: 0.5, ..Default::default() }).unwrap();
+    let (vm, _) = voxelize(
+        &small,
+        &VoxelizeParams {
+            voxel_size: 0.5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert!(pointshell(&big, &vm, LEAF_SIZE).is_err());
 }

@@ -46,13 +46,7 @@ fn assert_agrees_around(t: Tri) -> Result<usize, TestCaseError> {
     let mut hits = 0;
     for v in voxels_around(t) {
         let fast = sat.overlaps_voxel(v);
-        prop_assert_eq!(
-            fast,
-            reference_voxel(t, v),
-            "triangle {:?} voxel {:?}",
-            t,
-            v
-        );
+        prop_assert_eq!(fast, reference_voxel(t, v), "triangle {:?} voxel {:?}", t, v);
         hits += fast as usize;
     }
     Ok(hits)
@@ -228,13 +222,7 @@ fn assert_agrees_near(t: Tri, v: [i64; 3]) -> Result<(), TestCaseError> {
     let sat = SatTriangle::new(t);
     for d in 0..27 {
         let w = [v[0] + d % 3 - 1, v[1] + d / 3 % 3 - 1, v[2] + d / 9 - 1];
-        prop_assert_eq!(
-            sat.overlaps_voxel(w),
-            reference_voxel(t, w),
-            "{:?} {:?}",
-            t,
-            w
-        );
+        prop_assert_eq!(sat.overlaps_voxel(w), reference_voxel(t, w), "{:?} {:?}", t, w);
     }
     Ok(())
 }
@@ -246,12 +234,7 @@ fn assert_touch_then_miss(t: Tri, v: [i64; 3], away: DVec3) -> Result<(), TestCa
     prop_assert!(reference_voxel(t, v), "{:?} {:?}", t, v);
     assert_agrees_near(t, v)?;
     let moved = t.map(|p| p + away);
-    prop_assert!(
-        !SatTriangle::new(moved).overlaps_voxel(v),
-        "{:?} {:?}",
-        moved,
-        v
-    );
+    prop_assert!(!SatTriangle::new(moved).overlaps_voxel(v), "{:?} {:?}", moved, v);
     prop_assert!(!reference_voxel(moved, v), "{:?} {:?}", moved, v);
     assert_agrees_near(moved, v)?;
     Ok(())
@@ -369,20 +352,8 @@ fn assert_within_band(t: Tri, center: DVec3, half: DVec3) -> Result<(), TestCase
     let (lo, hi) = (center - half, center + half);
     let inner = triangle_box_overlap_by_clipping(t, lo + BAND, hi - BAND);
     let outer = triangle_box_overlap_by_clipping(t, lo - BAND, hi + BAND);
-    prop_assert!(
-        !inner || fast,
-        "missed: {:?} c {:?} h {:?}",
-        t,
-        center,
-        half
-    );
-    prop_assert!(
-        !fast || outer,
-        "false hit: {:?} c {:?} h {:?}",
-        t,
-        center,
-        half
-    );
+    prop_assert!(!inner || fast, "missed: {:?} c {:?} h {:?}", t, center, half);
+    prop_assert!(!fast || outer, "false hit: {:?} c {:?} h {:?}", t, center, half);
     Ok(())
 }
 
@@ -483,19 +454,14 @@ fn each_of_the_13_axes_is_needed() {
             break;
         }
         let t = [(); 3].map(|_| DVec3::new(rng.coord(), rng.coord(), rng.coord()));
-        let sep: Vec<usize> = (0..13)
-            .filter(|&i| separates(axes(t)[i], t, center, half))
-            .collect();
+        let sep: Vec<usize> = (0..13).filter(|&i| separates(axes(t)[i], t, center, half)).collect();
         if let [only] = sep[..] {
             found[only].get_or_insert(t);
         }
     }
     for (i, t) in found.iter().enumerate() {
         let t = t.unwrap_or_else(|| panic!("no triangle separated by axis {i} alone"));
-        assert!(
-            !SatTriangle::new(t).overlaps_voxel([0, 0, 0]),
-            "axis {i}: {t:?}"
-        );
+        assert!(!SatTriangle::new(t).overlaps_voxel([0, 0, 0]), "axis {i}: {t:?}");
         assert!(!reference_voxel(t, [0, 0, 0]), "axis {i}: {t:?}");
         let others_separate = (0..13)
             .filter(|&k| k != i)
@@ -505,10 +471,7 @@ fn each_of_the_13_axes_is_needed() {
             // Beyond the face axes, the bounding boxes overlap: a bounding-box test says "hit".
             let lo = t[0].min(t[1]).min(t[2]);
             let hi = t[0].max(t[1]).max(t[2]);
-            assert!(
-                lo.cmple(DVec3::ONE).all() && hi.cmpge(DVec3::ZERO).all(),
-                "axis {i}"
-            );
+            assert!(lo.cmple(DVec3::ONE).all() && hi.cmpge(DVec3::ZERO).all(), "axis {i}");
         }
     }
 }

@@ -15,7 +15,10 @@ fn meshes_dir() -> Option<PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
-        eprintln!("skipping: no shared meshes at {} (set VPS_MESHES to point elsewhere)", dir.display());
+        eprintln!(
+            "skipping: no shared meshes at {} (set VPS_MESHES to point elsewhere)",
+            dir.display()
+        );
         None
     }
 }
@@ -67,9 +70,16 @@ fn small_real_meshes_equal_dense_reference() {
         }
         assert_eq!(mismatches, 0, "{name}");
         if watertight {
-            assert!(vm.counts().inner_voxels > 0, "{name} is watertight but nothing is inside");
+            assert!(
+                vm.counts().inner_voxels > 0,
+                "{name} is watertight but nothing is inside"
+            );
         }
-        eprintln!("{name}: {} surface, {} inner voxels", vm.counts().surface_voxels, vm.counts().inner_voxels);
+        eprintln!(
+            "{name}: {} surface, {} inner voxels",
+            vm.counts().surface_voxels,
+            vm.counts().inner_voxels
+        );
     }
 }
 
@@ -78,7 +88,12 @@ fn small_real_meshes_equal_dense_reference() {
 fn real_meshes_round_trip_through_files() {
     let Some(dir) = meshes_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();
-    for name in ["nefertiti.obj", "differential_gears.obj", "cessna_c172p.obj", "turbine_blade.obj.zst"] {
+    for name in [
+        "nefertiti.obj",
+        "differential_gears.obj",
+        "cessna_c172p.obj",
+        "turbine_blade.obj.zst",
+    ] {
         let path = dir.join(name);
         if !path.exists() {
             eprintln!("skipping {name}: not found");
@@ -99,6 +114,9 @@ fn real_meshes_round_trip_through_files() {
         assert_eq!(f.to_voxmap().unwrap(), vm, "{name}");
         let per_voxel = w.payload_bytes as f64 / w.uncompressed_bytes.max(1) as f64;
         assert!(per_voxel < 1.0, "{name}: {per_voxel} bytes per stored voxel");
-        eprintln!("{name}: {} bricks, {:.3} bytes per stored voxel", w.bricks_stored, per_voxel);
+        eprintln!(
+            "{name}: {} bricks, {:.3} bytes per stored voxel",
+            w.bricks_stored, per_voxel
+        );
     }
 }

@@ -27,8 +27,7 @@ fn arb_triangle(extent: f64) -> impl Strategy<Value = Triangle> {
 /// Triangles with vertices on a 1/4 lattice: faces, edges and corners of voxels are hit exactly.
 fn arb_lattice_triangle(extent: i32) -> impl Strategy<Value = Triangle> {
     let c = -4 * extent..4 * extent;
-    let p = (c.clone(), c.clone(), c)
-        .prop_map(|(x, y, z)| DVec3::new(x as f64, y as f64, z as f64) / 4.0);
+    let p = (c.clone(), c.clone(), c).prop_map(|(x, y, z)| DVec3::new(x as f64, y as f64, z as f64) / 4.0);
     (p.clone(), p.clone(), p).prop_map(|(a, b, c)| [a, b, c])
 }
 
@@ -69,18 +68,11 @@ fn check_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
     };
     let (vm, report) = voxelize(mesh, &params).unwrap();
     let grid = *vm.grid();
-    assert!(
-        grid.voxel_count() < 30_000_000,
-        "test grid too big: {:?}",
-        grid.dims
-    );
+    assert!(grid.voxel_count() < 30_000_000, "test grid too big: {:?}", grid.dims);
     let tris = surface::to_grid_units(&grid, &mesh.triangles);
     let surf = dense_surface(&grid, &tris);
     let dense = dense_voxmap(grid.dims, &surf, layers);
-    assert_eq!(
-        report.surface_voxels,
-        surf.iter().filter(|&&s| s).count() as u64
-    );
+    assert_eq!(report.surface_voxels, surf.iter().filter(|&&s| s).count() as u64);
     let mut inner = 0u64;
     for z in 0..grid.dims[2] {
         for y in 0..grid.dims[1] {
@@ -98,8 +90,7 @@ fn check_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
 
 #[test]
 fn sparse_equals_dense_on_shapes() {
-    let sphere =
-        Mesh::from_triangles("s", shapes::sphere(DVec3::new(1.0, 2.0, 3.0), 9.0, 16, 32)).unwrap();
+    let sphere = Mesh::from_triangles("s", shapes::sphere(DVec3::new(1.0, 2.0, 3.0), 9.0, 16, 32)).unwrap();
     let vm = check_against_dense(&sphere, 0.7, 5);
     assert!(vm.counts().inner_voxels > 0);
     check_against_dense(&sphere, 0.7, 0);
@@ -108,22 +99,14 @@ fn sparse_equals_dense_on_shapes() {
     let torus = Mesh::from_triangles("t", shapes::torus(DVec3::ZERO, 10.0, 3.5, 48, 16)).unwrap();
     check_against_dense(&torus, 0.5, 3);
 
-    let shell = Mesh::from_triangles(
-        "h",
-        shapes::hollow_box(DVec3::ZERO, DVec3::new(20.0, 14.0, 9.0), 1.5),
-    )
-    .unwrap();
+    let shell = Mesh::from_triangles("h", shapes::hollow_box(DVec3::ZERO, DVec3::new(20.0, 14.0, 9.0), 1.5)).unwrap();
     let vm = check_against_dense(&shell, 0.5, 2);
     // The air inside the shell is enclosed by the walls and filled as inside.
     assert!(vm.value_at(DVec3::new(10.0, 7.0, 4.5)) > 0);
 
     let open = Mesh::from_triangles("o", shapes::open_hemisphere(DVec3::ZERO, 8.0, 8, 24)).unwrap();
     let vm = check_against_dense(&open, 0.5, 4);
-    assert_eq!(
-        vm.counts().inner_voxels,
-        0,
-        "an open surface encloses nothing"
-    );
+    assert_eq!(vm.counts().inner_voxels, 0, "an open surface encloses nothing");
 
     // Layers that reach across several bricks.
     let cube = Mesh::from_triangles("c", shapes::cuboid(DVec3::ZERO, DVec3::splat(30.0))).unwrap();
@@ -140,11 +123,8 @@ fn sparse_equals_dense_on_an_assembly() {
         shapes::hollow_box(DVec3::new(8.0, 0.0, 0.0), DVec3::new(22.0, 12.0, 11.0), 1.0),
     )
     .unwrap();
-    mesh.push_object(
-        "c",
-        shapes::torus(DVec3::new(15.0, 6.0, 5.5), 3.0, 1.2, 24, 12),
-    )
-    .unwrap();
+    mesh.push_object("c", shapes::torus(DVec3::new(15.0, 6.0, 5.5), 3.0, 1.2, 24, 12))
+        .unwrap();
     check_against_dense(&mesh, 0.4, 4);
 }
 
@@ -229,11 +209,7 @@ fn check_analytic(vm: &Voxmap, sdf: impl Fn(DVec3) -> f64, margin: f64) {
                 // Layer values bound the distance: |value| voxels of chessboard distance.
                 if v != 0 && v.unsigned_abs() <= vm.layers() {
                     let lim = (v.unsigned_abs() as f64 + 1.0) * g.voxel_size * 3f64.sqrt() + margin;
-                    assert!(
-                        d.abs() <= lim,
-                        "voxel {:?}: value {v}, distance {d}",
-                        [x, y, z]
-                    );
+                    assert!(d.abs() <= lim, "voxel {:?}: value {v}, distance {d}", [x, y, z]);
                 }
             }
         }
@@ -300,8 +276,16 @@ fn chunked_surface_equals_dense_surface() {
         tris.push([c + d(), c + d(), c + d()]);
     }
     // Triangles lying exactly on chunk and brick faces.
-    tris.push([DVec3::new(64.0, 3.0, 5.0), DVec3::new(64.0, 150.0, 7.0), DVec3::new(64.0, 40.0, 170.0)]);
-    tris.push([DVec3::new(2.0, 128.0, 5.0), DVec3::new(190.0, 128.0, 9.0), DVec3::new(70.0, 128.0, 130.0)]);
+    tris.push([
+        DVec3::new(64.0, 3.0, 5.0),
+        DVec3::new(64.0, 150.0, 7.0),
+        DVec3::new(64.0, 40.0, 170.0),
+    ]);
+    tris.push([
+        DVec3::new(2.0, 128.0, 5.0),
+        DVec3::new(190.0, 128.0, 9.0),
+        DVec3::new(70.0, 128.0, 130.0),
+    ]);
     let mesh = Mesh::from_triangles("t", tris).unwrap();
     let (lo, hi) = mesh.bounds();
     // Origin at a chunk corner so the faces above fall on chunk borders.
@@ -314,7 +298,10 @@ fn chunked_surface_equals_dense_surface() {
         for i in m.iter() {
             let v = [0, 1, 2].map(|a| b[a] * 8 + [i % 8, (i / 8) % 8, i / 64][a] as u32);
             let d = grid.dims;
-            assert!(dense[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize + v[0] as usize], "{v:?} not in the dense surface");
+            assert!(
+                dense[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize + v[0] as usize],
+                "{v:?} not in the dense surface"
+            );
             n += 1;
         }
     }

@@ -19,9 +19,7 @@ use crate::grid::{Grid, GridError, BRICK_VOXELS};
 use crate::mesh::Mesh;
 use crate::voxmap::fill::Outside;
 use crate::voxmap::layers::distance_layers;
-use crate::voxmap::{
-    inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, MAX_LAYERS,
-};
+use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, MAX_LAYERS};
 
 /// Errors in generating a voxmap.
 #[derive(Debug, thiserror::Error)]
@@ -89,10 +87,7 @@ pub struct VoxelizeReport {
 pub type PhaseHook<'a> = &'a (dyn Fn(&str) + Sync);
 
 /// Voxelize `mesh` into a sparse voxmap.
-pub fn voxelize(
-    mesh: &Mesh,
-    params: &VoxelizeParams,
-) -> Result<(Voxmap, VoxelizeReport), GenerateError> {
+pub fn voxelize(mesh: &Mesh, params: &VoxelizeParams) -> Result<(Voxmap, VoxelizeReport), GenerateError> {
     voxelize_with(mesh, params, &|_| {})
 }
 

@@ -23,7 +23,7 @@ use super::navigate::{touched_voxels, NavStats, Navigation};
 use super::surface::{grid_triangle, map_chunks};
 use super::GenerateError;
 use crate::geometry::closest::{closest_point, Feature};
-use crate::grid::{local_index, split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS};
+use crate::grid::{local_index, split_voxel, Grid, BRICK, BRICK_VOXELS};
 use crate::mesh::Mesh;
 use crate::pointshell::shell::{Pointshell, PointshellStats};
 use crate::pointshell::tree::SphereTree;
@@ -54,11 +54,21 @@ pub struct PointshellReport {
     pub projections: u64,
     /// Navigation work (SAT tests) to find the surface voxels of each triangle.
     pub nav: NavStats,
+    /// Time to project the voxel centres (phases 1 and 2).
+    pub t_project: std::time::Duration,
+    /// Time to compute the normals.
+    pub t_normals: std::time::Duration,
+    /// Time to build the sphere tree and reorder the points.
+    pub t_tree: std::time::Duration,
 }
 
 /// Make the pointshell of `mesh` from its voxmap, with sphere-tree leaves of at most
 /// `leaf_size` points.
-pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Pointshell, PointshellReport), GenerateError> {
+pub fn pointshell(
+    mesh: &Mesh,
+    voxmap: &Voxmap,
+    leaf_size: usize,
+) -> Result<(Pointshell, PointshellReport), GenerateError> {
     let grid = *voxmap.grid();
     let (lo, hi) = mesh.bounds();
     let (glo, ghi) = (grid.to_grid_units(lo), grid.to_grid_units(hi));
@@ -73,6 +83,7 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
         )));
     }
     let mut report = PointshellReport::default();
+    let t = std::time::Instant::now();
 
     let per_chunk = map_chunks(&grid, &mesh.triangles, |chunk| {
         let mut nav = NavStats::default();
@@ -123,6 +134,8 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
     // Group by brick, so the normals read each 5×5×5 neighbourhood from one gathered window.
     projected.par_sort_unstable_by_key(|p| p.order);
 
+    report.t_project = t.elapsed();
+    let t = std::time::Instant::now();
     let mut stats = PointshellStats {
         interior_points: projected.iter().filter(|p| p.phase == 0).count() as u64,
         ..Default::default()
@@ -130,7 +143,9 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
     stats.boundary_points_recovered = projected.len() as u64 - stats.interior_points;
 
     let brick_bits = BRICK_VOXELS.trailing_zeros();
-    let groups: Vec<&[Projected]> = projected.chunk_by(|a, b| a.order >> brick_bits == b.order >> brick_bits).collect();
+    let groups: Vec<&[Projected]> = projected
+        .chunk_by(|a, b| a.order >> brick_bits == b.order >> brick_bits)
+        .collect();
     let normals: Vec<(Vec<DVec3>, u64, u64)> = groups
         .par_iter()
         .map(|g| {
@@ -155,6 +170,8 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
         stats.voxmap_mismatches += m;
     }
 
+    report.t_normals = t.elapsed();
+    let t = std::time::Instant::now();
     let origin = (lo + hi) * 0.5;
     let points: Vec<Vec3> = projected
         .iter()
@@ -165,6 +182,7 @@ pub fn pointshell(mesh: &Mesh, voxmap: &Voxmap, leaf_size: usize) -> Result<(Poi
     let (tree, order) = SphereTree::build(&points, &normals, leaf_size);
     let points = order.iter().map(|&i| points[i as usize]).collect();
     let normals = order.iter().map(|&i| normals[i as usize]).collect();
+    report.t_tree = t.elapsed();
     Ok((
         Pointshell {
             origin,
@@ -229,17 +247,24 @@ impl Window {
                 *r = voxmap.brick(grid.brick_key(b.map(|c| c as u32)));
             }
         }
+        // Row by row: a window row of 12 takes 2 voxels from the brick below in x, 8 from
+        // the brick itself and 2 from the brick above.
+        let b = BRICK as usize;
         for z in 0..W {
             for y in 0..W {
-                for x in 0..W {
-                    // Window cell (x, y, z) is local voxel (x - 2, y - 2, z - 2) of the brick.
-                    let g = [x, y, z].map(|c| c as i64 - 2 + BRICK as i64);
-                    let nbi = [0, 1, 2].map(|a| (g[a] >> BRICK_SHIFT) as usize);
-                    let l = [0, 1, 2].map(|a| (g[a] & (BRICK as i64 - 1)) as u32);
-                    values[(z * W + y) * W + x] = match refs[nbi[0] + 3 * nbi[1] + 9 * nbi[2]] {
-                        BrickRef::Stored(v) => v[local_index(l[0], l[1], l[2])],
-                        BrickRef::Tile(t) => t,
-                    };
+                let (gz, gy) = (z + b - 2, y + b - 2);
+                let (nz, lz) = (gz / b, (gz % b) as u32);
+                let (ny, ly) = (gy / b, (gy % b) as u32);
+                let row = &mut values[(z * W + y) * W..(z * W + y + 1) * W];
+                for (nx, cells, from) in [(0usize, 0..2, b - 2), (1, 2..W - 2, 0), (2, W - 2..W, 0)] {
+                    let n = cells.len();
+                    match refs[nx + 3 * ny + 9 * nz] {
+                        BrickRef::Stored(v) => {
+                            let start = local_index(from as u32, ly, lz);
+                            row[cells].copy_from_slice(&v[start..start + n]);
+                        }
+                        BrickRef::Tile(t) => row[cells].fill(t),
+                    }
                 }
             }
         }

@@ -79,7 +79,9 @@ pub fn map_chunks<R: Send>(grid: &Grid, tris: &[Triangle], work: impl Fn(&Chunk)
             let mut out = Vec::new();
             let c0 = t.v[0].map(|x| (x * scale).floor());
             let single = t.v.iter().all(|p| p.map(|x| (x * scale).floor()) == c0)
-                && t.v.iter().all(|p| p.to_array().iter().all(|&x| (x * scale).fract() != 0.0));
+                && t.v
+                    .iter()
+                    .all(|p| p.to_array().iter().all(|&x| (x * scale).fract() != 0.0));
             if single {
                 out.push((chunk_key([c0.x as i64, c0.y as i64, c0.z as i64]), i as u32));
             } else {
@@ -117,7 +119,14 @@ pub fn map_chunks<R: Send>(grid: &Grid, tris: &[Triangle], work: impl Fn(&Chunk)
             ];
             let lo = c.map(|c| c * CHUNK_VOXELS as i64);
             let hi = [0, 1, 2].map(|a| (lo[a] + CHUNK_VOXELS as i64).min(grid.dims[a] as i64) - 1);
-            (*g, work(&Chunk { lo, hi, triangles: &indices[r.clone()] }))
+            (
+                *g,
+                work(&Chunk {
+                    lo,
+                    hi,
+                    triangles: &indices[r.clone()],
+                }),
+            )
         })
         .collect();
     results.sort_unstable_by_key(|r| r.0);
@@ -135,12 +144,19 @@ pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceB
         let mut block = vec![Mask512::EMPTY; nb * nb * nb];
         let mut stats = NavStats::default();
         for &ti in chunk.triangles {
-            touched_voxels(&grid_triangle(grid, &tris[ti as usize]), chunk.lo, chunk.hi, nav, &mut stats, |v| {
-                let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
-                let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
-                let m = BRICK - 1;
-                block[(b[0] * nb + b[1]) * nb + b[2]].set(local_index(l[0] & m, l[1] & m, l[2] & m));
-            });
+            touched_voxels(
+                &grid_triangle(grid, &tris[ti as usize]),
+                chunk.lo,
+                chunk.hi,
+                nav,
+                &mut stats,
+                |v| {
+                    let l = [0, 1, 2].map(|a| (v[a] - base[a]) as u32);
+                    let b = l.map(|c| (c >> BRICK_SHIFT) as usize);
+                    let m = BRICK - 1;
+                    block[(b[0] * nb + b[1]) * nb + b[2]].set(local_index(l[0] & m, l[1] & m, l[2] & m));
+                },
+            );
         }
         let bbase = base.map(|c| (c as u32) >> BRICK_SHIFT);
         let mut out = Vec::new();
@@ -162,9 +178,5 @@ pub fn mark_surface(grid: &Grid, tris: &[Triangle], nav: Navigation) -> SurfaceB
         stats += s;
     }
     bricks.par_sort_unstable_by_key(|b| b.0);
-    SurfaceBricks {
-        bricks,
-        stats,
-        chunks,
-    }
+    SurfaceBricks { bricks, stats, chunks }
 }

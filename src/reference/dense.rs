@@ -20,8 +20,7 @@ pub struct DenseGrid {
 impl DenseGrid {
     /// Index of voxel `v`.
     pub fn index(&self, v: [u32; 3]) -> usize {
-        (v[2] as usize * self.dims[1] as usize + v[1] as usize) * self.dims[0] as usize
-            + v[0] as usize
+        (v[2] as usize * self.dims[1] as usize + v[1] as usize) * self.dims[0] as usize + v[0] as usize
     }
 
     /// Value of voxel `v`.
@@ -36,17 +35,9 @@ pub fn dense_surface(grid: &Grid, tris: &[SatTriangle]) -> Vec<bool> {
     let mut s = vec![false; d.iter().map(|&x| x as usize).product()];
     let hi = d.map(|x| x as i64 - 1);
     for t in tris {
-        touched_voxels(
-            t,
-            [0; 3],
-            hi,
-            Navigation::BoundingBox,
-            &mut NavStats::default(),
-            |v| {
-                s[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize
-                    + v[0] as usize] = true;
-            },
-        );
+        touched_voxels(t, [0; 3], hi, Navigation::BoundingBox, &mut NavStats::default(), |v| {
+            s[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize + v[0] as usize] = true;
+        });
     }
     s
 }
@@ -68,14 +59,7 @@ pub fn dense_voxmap(dims: [u32; 3], surface: &[bool], layers: u8) -> DenseGrid {
     outside[0] = true;
     while let Some(i) = stack.pop() {
         let (x, y, z) = coords(i);
-        for (dx, dy, dz) in [
-            (1, 0, 0),
-            (-1, 0, 0),
-            (0, 1, 0),
-            (0, -1, 0),
-            (0, 0, 1),
-            (0, 0, -1),
-        ] {
+        for (dx, dy, dz) in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
             let (a, b, c) = (x + dx, y + dy, z + dz);
             if a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz {
                 continue;

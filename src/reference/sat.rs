@@ -72,13 +72,7 @@ trait Vertex: Sized + Clone {
     fn side(d: Self::Dist) -> Ordering;
     /// The point where the edge from `self` (distance `d`) to `other` (distance `e`) meets the
     /// plane; only called when `d` and `e` have strictly opposite signs.
-    fn crossing(
-        &self,
-        d: Self::Dist,
-        other: &Self,
-        e: Self::Dist,
-        h: HalfSpace<Self::Coord>,
-    ) -> Option<Self>;
+    fn crossing(&self, d: Self::Dist, other: &Self, e: Self::Dist, h: HalfSpace<Self::Coord>) -> Option<Self>;
 }
 
 /// One Sutherland–Hodgman pass: the part of the convex polygon `poly` in the half-space `h`.
@@ -118,11 +112,7 @@ fn clip_all<V: Vertex>(mut poly: Vec<V>, spaces: &[HalfSpace<V::Coord>]) -> Opti
 
 /// The six half-spaces of the box `[lo, hi]`.
 fn box_half_spaces<C: Copy>(lo: [C; 3], hi: [C; 3]) -> [HalfSpace<C>; 6] {
-    let h = |axis: usize, c: C, keep_above: bool| HalfSpace {
-        axis,
-        c,
-        keep_above,
-    };
+    let h = |axis: usize, c: C, keep_above: bool| HalfSpace { axis, c, keep_above };
     [
         h(0, lo[0], true),
         h(0, hi[0], false),
@@ -174,13 +164,9 @@ impl Vertex for Exact {
         // comes out as exactly c·w, no snapping needed.
         let mut x = [0i128; 3];
         for (a, xa) in x.iter_mut().enumerate() {
-            *xa = d
-                .checked_mul(other.x[a])?
-                .checked_sub(e.checked_mul(self.x[a])?)?;
+            *xa = d.checked_mul(other.x[a])?.checked_sub(e.checked_mul(self.x[a])?)?;
         }
-        let w = d
-            .checked_mul(other.w)?
-            .checked_sub(e.checked_mul(self.w)?)?;
+        let w = d.checked_mul(other.w)?.checked_sub(e.checked_mul(self.w)?)?;
         Exact { x, w }.normalised()
     }
 }
@@ -313,11 +299,7 @@ mod tests {
         let t = [v(3.0, -1.0, 0.0), v(-1.0, 3.0, 0.25), v(1.0, 1.0, 3.0)];
         assert!(triangle_box_overlap_by_clipping(t, DVec3::ZERO, DVec3::ONE));
         let moved = t.map(|p| p + DVec3::new(1.0 / 1024.0, 0.0, 0.0));
-        assert!(!triangle_box_overlap_by_clipping(
-            moved,
-            DVec3::ZERO,
-            DVec3::ONE
-        ));
+        assert!(!triangle_box_overlap_by_clipping(moved, DVec3::ZERO, DVec3::ONE));
     }
 
     #[test]
@@ -341,9 +323,7 @@ mod tests {
         assert!(!triangle_box_overlap_by_clipping(inside, hi, lo));
         let flat_box = (v(0.0, 0.0, 0.3), v(1.0, 1.0, 0.3));
         let across = [v(0.5, 0.5, 0.0), v(0.6, 0.5, 1.0), v(0.5, 0.6, 1.0)];
-        assert!(triangle_box_overlap_by_clipping(
-            across, flat_box.0, flat_box.1
-        ));
+        assert!(triangle_box_overlap_by_clipping(across, flat_box.0, flat_box.1));
     }
 
     #[test]
@@ -370,10 +350,6 @@ mod tests {
         let t = [v(0.1, 0.1, 0.1), v(0.7, 0.1, 0.1), v(0.1, 0.7, 0.1)];
         assert!(exact_overlap(t, DVec3::ZERO, DVec3::ONE).is_none());
         assert!(triangle_box_overlap_by_clipping(t, DVec3::ZERO, DVec3::ONE));
-        assert!(!triangle_box_overlap_by_clipping(
-            t,
-            DVec3::splat(0.2),
-            DVec3::ONE
-        ));
+        assert!(!triangle_box_overlap_by_clipping(t, DVec3::splat(0.2), DVec3::ONE));
     }
 }

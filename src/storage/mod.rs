@@ -43,16 +43,20 @@ pub enum StorageError {
         source: std::io::Error,
     },
     /// The file does not start with the `.vxm` magic bytes.
-    #[error("{path} is not a .vxm file: it starts with {found:02x?}")]
+    #[error("{path} is not a {kind} file: it starts with {found:02x?}")]
     BadMagic {
+        /// The kind of file expected, e.g. ".vxm voxmap".
+        kind: &'static str,
         /// The file.
         path: PathBuf,
         /// Its first bytes.
         found: Vec<u8>,
     },
     /// The file is a `.vxm` of a version this build cannot read.
-    #[error("{path} is .vxm format version {found}; this build reads version {supported}")]
+    #[error("{path} is {kind} format version {found}; this build reads version {supported}")]
     UnsupportedVersion {
+        /// The kind of file, e.g. ".vxm voxmap".
+        kind: &'static str,
         /// The file.
         path: PathBuf,
         /// Version in the file.
@@ -663,6 +667,7 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
     let magic = bytes.get(..MAGIC.len()).ok_or_else(|| truncated(HEADER_BYTES as u64))?;
     if magic != MAGIC {
         return Err(StorageError::BadMagic {
+            kind: ".vxm voxmap",
             path: path.to_path_buf(),
             found: magic.to_vec(),
         });
@@ -674,6 +679,7 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
         .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
     if version != VERSION {
         return Err(StorageError::UnsupportedVersion {
+            kind: ".vxm voxmap",
             path: path.to_path_buf(),
             found: version,
             supported: VERSION,

@@ -193,6 +193,7 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageE
         let _ = tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644));
     }
     tmp.persist(path).map_err(|e| io("rename temporary file to", e.error))?;
+    super::sync_parent(path);
     Ok(())
 }
 
@@ -250,9 +251,23 @@ impl PointshellFile {
         };
         if bytes.len() < 8 || bytes[..8] != PS_MAGIC {
             return Err(StorageError::BadMagic {
+                kind: ".vps pointshell",
                 path: path.clone(),
                 found: bytes[..bytes.len().min(8)].to_vec(),
             });
+        }
+        // The version sits at offset 8 in every version: check it before the header CRC, whose
+        // place a later version may move, so that such a file reads as unsupported, not corrupt.
+        if let Some(v) = bytes.get(8..12) {
+            let found = u32::from_le_bytes([v[0], v[1], v[2], v[3]]);
+            if found != PS_VERSION {
+                return Err(StorageError::UnsupportedVersion {
+                    kind: ".vps pointshell",
+                    path: path.clone(),
+                    found,
+                    supported: PS_VERSION,
+                });
+            }
         }
         if bytes.len() < PS_HEADER_BYTES {
             return Err(StorageError::Truncated {
@@ -270,13 +285,6 @@ impl PointshellFile {
                 computed,
             });
         }
-        if h.version != PS_VERSION {
-            return Err(StorageError::UnsupportedVersion {
-                path: path.clone(),
-                found: h.version,
-                supported: PS_VERSION,
-            });
-        }
         let [p, n, t, end] = layout(h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
         if [h.points_offset, h.normals_offset, h.nodes_offset, h.file_bytes] != [p, n, t, end]
             || h.header_bytes as usize != PS_HEADER_BYTES
@@ -291,11 +299,25 @@ impl PointshellFile {
             });
         }
         if bytes.len() as u64 != end {
-            return Err(corrupt(format!("{} bytes after the end of the nodes", bytes.len() as u64 - end)));
+            return Err(corrupt(format!(
+                "{} bytes after the end of the nodes",
+                bytes.len() as u64 - end
+            )));
         }
         let (p, n, t, end) = (p as usize, n as usize, t as usize, end as usize);
         let np = h.points as usize;
         let sections = [p..p + 12 * np, n..n + 12 * np, t..end];
+        // No CRC covers the padding before each section: it must be zero, so that every byte
+        // of the file is checked.
+        for (pad, name) in [
+            (PS_HEADER_BYTES..p, "header"),
+            (sections[0].end..n, "points"),
+            (sections[1].end..t, "normals"),
+        ] {
+            if bytes[pad].iter().any(|&b| b != 0) {
+                return Err(corrupt(format!("nonzero padding after the {name}")));
+            }
+        }
         for (range, crc, name) in [
             (&sections[0], h.points_crc, "points"),
             (&sections[1], h.normals_crc, "normals"),
@@ -309,20 +331,20 @@ impl PointshellFile {
             return Err(corrupt("voxel size or origin is not finite".into()));
         }
         let header = PointshellHeader {
-                version: h.version,
-                origin: DVec3::from_array(h.origin),
-                voxel_size: h.voxel_size,
-                points: h.points,
-                nodes: h.nodes,
-                tree_depth: h.tree_depth,
-                leaf_size: h.leaf_size,
+            version: h.version,
+            origin: DVec3::from_array(h.origin),
+            voxel_size: h.voxel_size,
+            points: h.points,
+            nodes: h.nodes,
+            tree_depth: h.tree_depth,
+            leaf_size: h.leaf_size,
             stats: PointshellStats {
                 interior_points: h.interior_points,
                 boundary_points_recovered: h.boundary_points_recovered,
                 normal_fallbacks: h.normal_fallbacks,
                 voxmap_mismatches: h.voxmap_mismatches,
             },
-                file_bytes: h.file_bytes,
+            file_bytes: h.file_bytes,
         };
         let f = PointshellFile {
             header,
@@ -414,8 +436,19 @@ impl PointshellFile {
 
 /// Write points with normals, in the object's frame, as a binary little-endian PLY that
 /// MeshLab, CloudCompare and Blender open. Written atomically like every other output.
-pub fn write_ply(path: impl AsRef<Path>, origin: DVec3, points: &[Vec3], normals: &[Vec3]) -> Result<u64, StorageError> {
+pub fn write_ply(
+    path: impl AsRef<Path>,
+    origin: DVec3,
+    points: &[Vec3],
+    normals: &[Vec3],
+) -> Result<u64, StorageError> {
     let path = path.as_ref();
+    if points.len() != normals.len() {
+        return Err(StorageError::InvalidInput {
+            path: path.to_path_buf(),
+            what: format!("{} points but {} normals", points.len(), normals.len()),
+        });
+    }
     let mut bytes = format!(
         "ply\nformat binary_little_endian 1.0\ncomment vps pointshell: normals point into the object\n\
          element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\

@@ -80,11 +80,7 @@ impl Outside {
         let e = self.col_start[c + 1] as usize;
         let j = id - s - c;
         let z0 = if j == 0 { 0 } else { self.bz[s + j - 1] + 1 };
-        let z1 = if s + j < e {
-            self.bz[s + j]
-        } else {
-            self.nb[2]
-        };
+        let z1 = if s + j < e { self.bz[s + j] } else { self.nb[2] };
         (z1 > z0).then(|| (c, z0, z1 - 1))
     }
 
@@ -105,10 +101,7 @@ impl Outside {
     }
 
     fn column_xy(&self, c: usize) -> (u32, u32) {
-        (
-            (c / self.nb[1] as usize) as u32,
-            (c % self.nb[1] as usize) as u32,
-        )
+        ((c / self.nb[1] as usize) as u32, (c % self.nb[1] as usize) as u32)
     }
 
     /// The column beside `c` across `face` (x or y), if inside the grid.
@@ -156,9 +149,7 @@ impl Outside {
         queue: &mut VecDeque<Node>,
         queued: &mut [bool],
     ) {
-        let fresh = seed
-            .and_not(&walls[i as usize])
-            .and_not(&self.reached[i as usize]);
+        let fresh = seed.and_not(&walls[i as usize]).and_not(&self.reached[i as usize]);
         if fresh.is_empty() {
             return;
         }
@@ -177,13 +168,7 @@ impl Outside {
     }
 
     /// A reached span opens every face it shares with its neighbours.
-    fn visit_span(
-        &mut self,
-        id: u32,
-        walls: &[Mask512],
-        queue: &mut VecDeque<Node>,
-        queued: &mut [bool],
-    ) {
+    fn visit_span(&mut self, id: u32, walls: &[Mask512], queue: &mut VecDeque<Node>, queued: &mut [bool]) {
         let Some((c, z0, z1)) = self.span_range(id) else {
             return;
         };
@@ -224,26 +209,14 @@ impl Outside {
                 if k >= ne || self.bz[k] > z1 {
                     break;
                 }
-                self.seed_brick(
-                    k as u32,
-                    Mask512::face(face.opposite()),
-                    walls,
-                    queue,
-                    queued,
-                );
+                self.seed_brick(k as u32, Mask512::face(face.opposite()), walls, queue, queued);
                 k += 1;
             }
         }
     }
 
     /// Fill a surface brick from its reached voxels, then pass what reaches its faces on.
-    fn visit_brick(
-        &mut self,
-        i: u32,
-        walls: &[Mask512],
-        queue: &mut VecDeque<Node>,
-        queued: &mut [bool],
-    ) {
+    fn visit_brick(&mut self, i: u32, walls: &[Mask512], queue: &mut VecDeque<Node>, queued: &mut [bool]) {
         let open = Mask512::FULL.and_not(&walls[i as usize]);
         let filled = self.reached[i as usize].flood_within(&open);
         self.reached[i as usize] = filled;

@@ -108,8 +108,7 @@ fn dilate_keys(nb: [u32; 3], mut keys: Vec<u64>, reach: u32) -> Vec<u64> {
                 let c = coord(nb, key, axis) as i64;
                 (-r..=r).filter_map(move |d| {
                     let n = c + d;
-                    (n >= 0 && n < nb[axis] as i64)
-                        .then(|| (key as i64 + d * stride[axis] as i64) as u64)
+                    (n >= 0 && n < nb[axis] as i64).then(|| (key as i64 + d * stride[axis] as i64) as u64)
                 })
             })
             .collect();

@@ -142,10 +142,7 @@ impl Mask512 {
     pub fn dilate_x(&self, low: &Mask512, high: &Mask512) -> Mask512 {
         Mask512(std::array::from_fn(|z| {
             let w = self.0[z];
-            w | ((w << 1) & !X0)
-                | ((w >> 1) & !X7)
-                | ((low.0[z] & X7) >> 7)
-                | ((high.0[z] & X0) << 7)
+            w | ((w << 1) & !X0) | ((w >> 1) & !X7) | ((low.0[z] & X7) >> 7) | ((high.0[z] & X0) << 7)
         }))
     }
 
