@@ -15,6 +15,7 @@ use glam::DVec3;
 use vps::geometry::closest::{closest_point, closest_point_on_segment, Feature};
 use vps::geometry::sat::SatTriangle;
 use vps::reference::closest::closest_point_brute;
+use vps::shapes::SplitMix;
 
 /// Queries per iteration for the kernel.
 const QUERIES: usize = 4096;
@@ -23,26 +24,9 @@ const BRUTE_QUERIES: usize = 32;
 /// Grid resolution of the brute-force reference, as in the tests.
 const BRUTE_SAMPLES: u32 = 200;
 
-/// Splitmix64: deterministic, so runs compare, and free of dependencies.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-
-    fn vec3(&mut self, lo: f64, hi: f64) -> DVec3 {
-        DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
-    }
+/// Uniform in the cube `[lo, hi)³`.
+fn vec3(rng: &mut SplitMix, lo: f64, hi: f64) -> DVec3 {
+    DVec3::new(rng.range(lo, hi), rng.range(lo, hi), rng.range(lo, hi))
 }
 
 type Query = (DVec3, [DVec3; 3]);
@@ -55,8 +39,8 @@ fn workload(seed: u64, n: usize, faces_only: bool) -> Vec<Query> {
     let mut rng = SplitMix(seed);
     (0..n)
         .map(|_| {
-            let base = rng.vec3(0.0, 32.0);
-            let tri = [(); 3].map(|_| base + rng.vec3(-1.5, 1.5));
+            let base = vec3(&mut rng, 0.0, 32.0);
+            let tri = [(); 3].map(|_| base + vec3(&mut rng, -1.5, 1.5));
             let p = if faces_only {
                 let (s, t) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
                 let (s, t) = if s + t > 1.0 { (1.0 - s, 1.0 - t) } else { (s, t) };

@@ -12,6 +12,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::DVec3;
 use vps::geometry::sat::SatTriangle;
 use vps::reference::sat::triangle_box_overlap_by_clipping;
+use vps::shapes::SplitMix;
 
 /// Triangles in the workload.
 const TRIANGLES: usize = 256;
@@ -19,28 +20,6 @@ const TRIANGLES: usize = 256;
 const VOXELS_PER_TRIANGLE: usize = 16;
 /// Tests per benchmark iteration.
 const PAIRS: usize = TRIANGLES * VOXELS_PER_TRIANGLE;
-
-/// Splitmix64: deterministic, so runs compare, and free of dependencies.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn below(&mut self, n: i64) -> i64 {
-        (self.next() % n as u64) as i64
-    }
-}
 
 /// One test: a prepared triangle (by index) and a voxel.
 struct Workload {
@@ -80,7 +59,7 @@ fn workload(seed: u64, lattice: bool) -> Workload {
                 p.floor().to_array().map(|x| x as i64)
             } else {
                 // Anywhere in the grown bounding box: mostly near misses.
-                [0, 1, 2].map(|a| lo[a] as i64 + rng.below((hi[a] - lo[a]) as i64 + 1))
+                [0, 1, 2].map(|a| lo[a] as i64 + rng.below((hi[a] - lo[a]) as u64 + 1) as i64)
             };
             pairs.push((i, v));
         }

@@ -18,42 +18,24 @@ use glam::{DVec3, Vec3};
 use vps::generate::{voxelize, VoxelizeParams};
 use vps::mesh::Mesh;
 use vps::pointshell::tree::{build, reference, reorder, SphereTree, LEAF_SIZE};
-use vps::shapes;
+use vps::shapes::{self, SplitMix};
 use vps::voxmap::Voxmap;
 
-/// Splitmix64: deterministic, so runs compare, and free of dependencies.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform on the unit sphere.
-    fn direction(&mut self) -> Vec3 {
-        let z = 2.0 * self.unit() - 1.0;
-        let a = TAU * self.unit();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * a.cos(), s * a.sin(), z)
-    }
+/// Uniform on the unit sphere, from a fixed stream so that runs compare.
+fn direction(rng: &mut SplitMix) -> Vec3 {
+    let z = 2.0 * rng.unit_f32() - 1.0;
+    let a = TAU * rng.unit_f32();
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(s * a.cos(), s * a.sin(), z)
 }
 
 /// `n` points on a sphere with bumps (so that nodes are not all caps of one sphere), with
 /// inward normals of the underlying sphere.
 fn bumpy_sphere(n: usize, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     (0..n)
         .map(|_| {
-            let d = rng.direction();
+            let d = direction(&mut rng);
             let r = 1.0 + 0.05 * (7.0 * d.x).sin() * (5.0 * d.y).cos() + 0.02 * (13.0 * d.z).sin();
             (d * r, -d)
         })
@@ -127,12 +109,12 @@ fn leaf_size_proxy(c: &mut Criterion) {
     let (vm, _) = voxelize(&mesh, &params).unwrap();
     // About one point per voxel of the moving unit sphere's surface.
     let n = (2.0 * TAU / (VOXEL * VOXEL) as f32) as usize;
-    let mut rng = Rng(3);
-    let points: Vec<Vec3> = (0..n).map(|_| rng.direction()).collect();
+    let mut rng = SplitMix(3);
+    let points: Vec<Vec3> = (0..n).map(|_| direction(&mut rng)).collect();
     let normals: Vec<Vec3> = points.iter().map(|&p| -p).collect();
     // Poses pressing 0.2 to 10 voxels deep, from all sides.
     let poses: Vec<Vec3> = (0..200)
-        .map(|k| rng.direction() * (2.0 - [0.002, 0.01, 0.03, 0.1][k % 4]))
+        .map(|k| direction(&mut rng) * (2.0 - [0.002, 0.01, 0.03, 0.1][k % 4]))
         .collect();
     let mut g = c.benchmark_group("query_proxy");
     g.sample_size(20).measurement_time(Duration::from_secs(10));

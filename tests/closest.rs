@@ -13,6 +13,7 @@ use proptest::prelude::*;
 use proptest::test_runner::Config;
 use vps::geometry::closest::{closest_point, closest_point_on_segment, Closest, Feature};
 use vps::reference::closest::{closest_point_brute, sampling_error_bound};
+use vps::shapes::SplitMix;
 
 type Tri = [DVec3; 3];
 
@@ -280,7 +281,7 @@ fn sweep_covers_every_feature() {
     let mut rng = SplitMix(0xc105_e570);
     let mut seen = std::collections::HashMap::new();
     for _ in 0..200_000 {
-        let tri: Tri = [(); 3].map(|_| rng.vec3(10.0));
+        let tri: Tri = [(); 3].map(|_| in_cube(&mut rng, 10.0));
         let [v0, v1, v2] = tri;
         let n = (v1 - v0).cross(v2 - v0).normalize_or_zero();
         let (s, t, h) = (rng.range(-1.0, 2.0), rng.range(-1.0, 2.0), rng.range(-5.0, 5.0));
@@ -436,7 +437,7 @@ fn degenerate_triangles() {
     let mut rng = SplitMix(0xdec0);
     for tri in &tris {
         for _ in 0..2000 {
-            let p = rng.vec3(10.0);
+            let p = in_cube(&mut rng, 10.0);
             check_degenerate(p, tri);
         }
         // On the hull itself, at and between the vertices.
@@ -461,17 +462,17 @@ fn slivers() {
     for k in 0..=12 {
         let h = 10f64.powi(-k);
         for _ in 0..500 {
-            let v0 = rng.vec3(10.0);
-            let dir = rng.vec3(1.0).normalize_or(DVec3::X);
+            let v0 = in_cube(&mut rng, 10.0);
+            let dir = in_cube(&mut rng, 1.0).normalize_or(DVec3::X);
             let side = dir.any_orthonormal_vector();
             let len = rng.range(0.5, 5.0);
             // Thin at v0 (the ill-conditioned case) or at v1 (harmless), in turn.
-            let tri = if rng.next() % 2 == 0 {
+            let tri = if rng.below(2) == 0 {
                 [v0, v0 + dir * len, v0 + dir * (0.5 * len) + side * (h * len)]
             } else {
                 [v0, v0 + side * (h * len), v0 + dir * len]
             };
-            let p = v0 + rng.vec3(2.0 * len);
+            let p = v0 + in_cube(&mut rng, 2.0 * len);
             let c = closest_point(p, &tri);
             let sc = scale(p, &tri);
             check_consistent(p, &tri, &c, 1e-12 * sc).unwrap();
@@ -514,8 +515,8 @@ fn far_queries_keep_relative_accuracy() {
     // Random far queries around random triangles: optimality to the scale of the query.
     let mut rng = SplitMix(0xfa7);
     for _ in 0..20_000 {
-        let tri: Tri = [(); 3].map(|_| rng.vec3(1.0));
-        let p = rng.vec3(1.0).normalize_or(z) * far * rng.range(0.5, 1.0);
+        let tri: Tri = [(); 3].map(|_| in_cube(&mut rng, 1.0));
+        let p = in_cube(&mut rng, 1.0).normalize_or(z) * far * rng.range(0.5, 1.0);
         let c = closest_point(p, &tri);
         let sc = scale(p, &tri);
         check_consistent(p, &tri, &c, 1e-12 * sc).unwrap();
@@ -551,9 +552,13 @@ fn tiny_triangles_keep_relative_accuracy() {
     // Random tiny triangles, near the origin and away from it, against brute force.
     let mut rng = SplitMix(0x711e);
     for i in 0..2_000 {
-        let centre = if i % 2 == 0 { DVec3::ZERO } else { rng.vec3(1.0) };
-        let tri: Tri = [(); 3].map(|_| centre + rng.vec3(tiny));
-        let p = centre + rng.vec3(3.0 * tiny);
+        let centre = if i % 2 == 0 {
+            DVec3::ZERO
+        } else {
+            in_cube(&mut rng, 1.0)
+        };
+        let tri: Tri = [(); 3].map(|_| centre + in_cube(&mut rng, tiny));
+        let p = centre + in_cube(&mut rng, 3.0 * tiny);
         let c = closest_point(p, &tri);
         // Coordinates near 1 carry absolute rounding of 1e-16, 1e-10 of the triangle.
         let sc = scale(p, &tri) + centre.length() * 1e4 * f64::EPSILON;
@@ -568,25 +573,7 @@ fn tiny_triangles_keep_relative_accuracy() {
 
 // ---------------------------------------------------------------------------------------------
 
-/// Splitmix64: deterministic sweeps without a dependency.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-
-    /// Uniform in the cube `[-r, r)³`.
-    fn vec3(&mut self, r: f64) -> DVec3 {
-        DVec3::new(self.range(-r, r), self.range(-r, r), self.range(-r, r))
-    }
+/// Uniform in the cube `[-r, r)³`, from a fixed stream for deterministic sweeps.
+fn in_cube(rng: &mut SplitMix, r: f64) -> DVec3 {
+    DVec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r))
 }

@@ -9,6 +9,7 @@ use proptest::prelude::*;
 use proptest::test_runner::Config;
 use vps::geometry::sat::SatTriangle;
 use vps::reference::sat::triangle_box_overlap_by_clipping;
+use vps::shapes::SplitMix;
 
 type Tri = [DVec3; 3];
 
@@ -424,22 +425,9 @@ fn separates(axis: DVec3, t: Tri, center: DVec3, half: DVec3) -> bool {
     p[0].min(p[1]).min(p[2]) > r || p[0].max(p[1]).max(p[2]) < -r
 }
 
-/// Splitmix64: a fixed, dependency-free stream for the searches below.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// A multiple of 1/16 in [-1.5, 2.5].
-    fn coord(&mut self) -> f64 {
-        (self.next() % 65) as f64 / 16.0 - 1.5
-    }
+/// A multiple of 1/16 in [-1.5, 2.5], from a fixed stream for the searches below.
+fn coord(rng: &mut SplitMix) -> f64 {
+    rng.below(65) as f64 / 16.0 - 1.5
 }
 
 #[test]
@@ -453,7 +441,7 @@ fn each_of_the_13_axes_is_needed() {
         if found.iter().all(Option::is_some) {
             break;
         }
-        let t = [(); 3].map(|_| DVec3::new(rng.coord(), rng.coord(), rng.coord()));
+        let t = [(); 3].map(|_| DVec3::new(coord(&mut rng), coord(&mut rng), coord(&mut rng)));
         let sep: Vec<usize> = (0..13).filter(|&i| separates(axes(t)[i], t, center, half)).collect();
         if let [only] = sep[..] {
             found[only].get_or_insert(t);

@@ -11,46 +11,26 @@ use std::time::Instant;
 use glam::Vec3;
 use proptest::prelude::*;
 use vps::pointshell::tree::{build, reference, reorder, tightness, SphereNode, SphereTree, LEAF_SIZE, NO_CHILD};
+use vps::shapes::SplitMix;
 
-/// Splitmix64: deterministic point sets without a dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform on the unit sphere (Archimedes: z uniform, angle uniform).
-    fn direction(&mut self) -> Vec3 {
-        let z = self.range(-1.0, 1.0);
-        let a = self.range(0.0, TAU);
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * a.cos(), s * a.sin(), z)
-    }
+/// Uniform on the unit sphere (Archimedes: z uniform, angle uniform), from a fixed stream so
+/// that point sets are deterministic.
+fn direction(rng: &mut SplitMix) -> Vec3 {
+    let z = rng.range_f32(-1.0, 1.0);
+    let a = rng.range_f32(0.0, TAU);
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(s * a.cos(), s * a.sin(), z)
 }
 
 type Cloud = (Vec<Vec3>, Vec<Vec3>);
 
 /// Points on a sphere of radius 1 around (0.3, -0.2, 0.5), normals pointing in.
 fn sphere(n: usize, seed: u64) -> Cloud {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     let c = Vec3::new(0.3, -0.2, 0.5);
     (0..n)
         .map(|_| {
-            let d = rng.direction();
+            let d = direction(&mut rng);
             (c + d, -d)
         })
         .unzip()
@@ -58,10 +38,10 @@ fn sphere(n: usize, seed: u64) -> Cloud {
 
 /// Points on a torus (major radius 1, minor 0.3), normals pointing in.
 fn torus(n: usize, seed: u64) -> Cloud {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     (0..n)
         .map(|_| {
-            let (u, v) = (rng.range(0.0, TAU), rng.range(0.0, TAU));
+            let (u, v) = (rng.range_f32(0.0, TAU), rng.range_f32(0.0, TAU));
             let ring = Vec3::new(u.cos(), u.sin(), 0.0);
             let out = ring * v.cos() + Vec3::Z * v.sin();
             (ring + out * 0.3, -out)
@@ -71,20 +51,32 @@ fn torus(n: usize, seed: u64) -> Cloud {
 
 /// Points on the faces of a few random axis-aligned boxes, normals pointing in.
 fn boxes(n: usize, seed: u64) -> Cloud {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     let boxes: Vec<(Vec3, Vec3)> = (0..5)
         .map(|_| {
-            let lo = Vec3::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0), rng.range(-5.0, 5.0));
-            let size = Vec3::new(rng.range(0.1, 3.0), rng.range(0.1, 3.0), rng.range(0.1, 3.0));
+            let lo = Vec3::new(
+                rng.range_f32(-5.0, 5.0),
+                rng.range_f32(-5.0, 5.0),
+                rng.range_f32(-5.0, 5.0),
+            );
+            let size = Vec3::new(
+                rng.range_f32(0.1, 3.0),
+                rng.range_f32(0.1, 3.0),
+                rng.range_f32(0.1, 3.0),
+            );
             (lo, lo + size)
         })
         .collect();
     (0..n)
         .map(|_| {
-            let (lo, hi) = boxes[(rng.next() % boxes.len() as u64) as usize];
-            let axis = (rng.next() % 3) as usize;
-            let high = rng.next() % 2 == 1;
-            let mut p = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            let (lo, hi) = boxes[rng.below(boxes.len() as u64) as usize];
+            let axis = rng.below(3) as usize;
+            let high = rng.below(2) == 1;
+            let mut p = Vec3::new(
+                rng.range_f32(lo.x, hi.x),
+                rng.range_f32(lo.y, hi.y),
+                rng.range_f32(lo.z, hi.z),
+            );
             p[axis] = if high { hi[axis] } else { lo[axis] };
             let mut normal = Vec3::ZERO;
             normal[axis] = if high { -1.0 } else { 1.0 };
@@ -95,19 +87,19 @@ fn boxes(n: usize, seed: u64) -> Cloud {
 
 /// Tight clusters of very different sizes far apart, with random normals.
 fn clustered(n: usize, seed: u64) -> Cloud {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix(seed);
     let centres: Vec<(Vec3, f32)> = (0..7i32)
-        .map(|k| (rng.direction() * rng.range(10.0, 100.0), 10f32.powi(-k)))
+        .map(|k| (direction(&mut rng) * rng.range_f32(10.0, 100.0), 10f32.powi(-k)))
         .collect();
     (0..n)
         .map(|_| {
-            let (c, s) = centres[(rng.next() % centres.len() as u64) as usize];
+            let (c, s) = centres[rng.below(centres.len() as u64) as usize];
             let offset = Vec3::new(
-                rng.unit() + rng.unit(),
-                rng.unit() + rng.unit(),
-                rng.unit() + rng.unit(),
+                rng.unit_f32() + rng.unit_f32(),
+                rng.unit_f32() + rng.unit_f32(),
+                rng.unit_f32() + rng.unit_f32(),
             );
-            (c + (offset - 1.0) * s, rng.direction())
+            (c + (offset - 1.0) * s, direction(&mut rng))
         })
         .unzip()
 }
@@ -317,9 +309,9 @@ fn welzl_matches_brute_force_on_small_sets() {
     // Brute force: the minimal sphere is the smallest of the spheres on 2, 3 or 4 of the points
     // that contain all of them; here checked against its defining properties instead: it
     // contains everything, and no sphere from a slightly shrunk one does (a point lies on it).
-    let mut rng = Rng(31);
+    let mut rng = SplitMix(31);
     for n in 1..60 {
-        let pts: Vec<Vec3> = (0..n).map(|_| rng.direction() * rng.range(0.1, 2.0)).collect();
+        let pts: Vec<Vec3> = (0..n).map(|_| direction(&mut rng) * rng.range_f32(0.1, 2.0)).collect();
         let b = reference::min_enclosing_sphere(&pts).unwrap();
         let far = pts.iter().map(|p| p.as_dvec3().distance(b.center)).fold(0.0, f64::max);
         assert!(far <= b.radius * (1.0 + 1e-9), "n {n}");
@@ -327,7 +319,7 @@ fn welzl_matches_brute_force_on_small_sets() {
         // The centre lies in the convex hull of the boundary points, so moving it any way makes
         // some point farther; probe a few directions.
         for _ in 0..20 {
-            let moved = b.center + rng.direction().as_dvec3() * (1e-4 * b.radius.max(1e-9));
+            let moved = b.center + direction(&mut rng).as_dvec3() * (1e-4 * b.radius.max(1e-9));
             let far_moved = pts.iter().map(|p| p.as_dvec3().distance(moved)).fold(0.0, f64::max);
             assert!(far_moved >= b.radius * (1.0 - 1e-9), "n {n}: a smaller sphere exists");
         }
@@ -405,17 +397,21 @@ fn cloud_strategy() -> impl Strategy<Value = (Cloud, usize)> {
         prop::bool::ANY,
     )
         .prop_map(|(n, leaf, seed, grid, scale_exp, same_normal)| {
-            let mut rng = Rng(seed);
+            let mut rng = SplitMix(seed);
             let scale = 10f32.powi(scale_exp);
-            let offset = rng.direction() * scale * 10.0;
-            let dir = rng.direction();
+            let offset = direction(&mut rng) * scale * 10.0;
+            let dir = direction(&mut rng);
             let cloud = (0..n)
                 .map(|_| {
-                    let mut q = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                    let mut q = Vec3::new(
+                        rng.range_f32(-1.0, 1.0),
+                        rng.range_f32(-1.0, 1.0),
+                        rng.range_f32(-1.0, 1.0),
+                    );
                     if grid {
                         q = (q * 3.0).round() / 3.0;
                     }
-                    (offset + q * scale, if same_normal { dir } else { rng.direction() })
+                    (offset + q * scale, if same_normal { dir } else { direction(&mut rng) })
                 })
                 .unzip();
             (cloud, leaf)

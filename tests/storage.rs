@@ -289,7 +289,7 @@ fn corruption_gives_the_specific_error() {
     bad[..4].copy_from_slice(b"PK\x03\x04");
     let e = write_bad(&bad).unwrap_err();
     assert!(matches!(e, StorageError::BadMagic { .. }), "{e}");
-    assert!(e.to_string().contains("not a .vxm file"), "{e}");
+    assert!(e.to_string().contains("not a .vxm voxmap file"), "{e}");
 
     // Wrong version with a correct header checksum: only the version is wrong.
     let mut h2 = h;

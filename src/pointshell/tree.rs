@@ -616,6 +616,8 @@ pub fn tightness(tree: &SphereTree, points: &[Vec3]) -> TightnessStats {
 pub mod reference {
     use glam::{DVec3, Vec3};
 
+    use crate::shapes::SplitMix;
+
     /// A sphere in `f64`.
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct Ball {
@@ -655,20 +657,6 @@ pub mod reference {
         }
     }
 
-    /// Fixed-seed splitmix64, so that the shuffle (and so the work, not the result) is
-    /// reproducible.
-    struct SplitMix(u64);
-
-    impl SplitMix {
-        fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
-        }
-    }
-
     /// The minimal sphere enclosing `points`, or `None` for no points.
     ///
     /// Welzl's algorithm in its iterative form with move-to-front (as in Gärtner's Miniball):
@@ -682,9 +670,10 @@ pub mod reference {
             return None;
         }
         let mut pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+        // Fixed seed, so that the shuffle (and so the work, not the result) is reproducible.
         let mut rng = SplitMix(0x5eed_5eed_5eed);
         for i in (1..pts.len()).rev() {
-            let j = (rng.next() % (i as u64 + 1)) as usize;
+            let j = rng.below(i as u64 + 1) as usize;
             pts.swap(i, j);
         }
         Some(min_ball_in_order(&mut pts))
