@@ -17,6 +17,10 @@ pub const BRICK_VOXELS: usize = (BRICK * BRICK * BRICK) as usize;
 /// Largest number of voxels along one axis: keeps every voxel index and brick key in range.
 pub const MAX_DIM: u64 = 1 << 24;
 
+/// Largest number of (x, y) columns of bricks: the flood fill keeps 4 bytes per column, so
+/// this caps that table at 1 GiB.
+pub const MAX_COLUMNS: u64 = 1 << 28;
+
 /// Errors in choosing a grid.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum GridError {
@@ -34,6 +38,9 @@ pub enum GridError {
     /// The grid would have more voxels along an axis than the format can address.
     #[error("grid would need {0} voxels along one axis (limit {MAX_DIM}): use a larger voxel size")]
     TooLarge(u64),
+    /// The grid's cross-section has more brick columns than the fill's column table allows.
+    #[error("grid would have {0} columns of bricks across x and y (limit {MAX_COLUMNS}): use a larger voxel size")]
+    TooManyColumns(u64),
 }
 
 /// A regular grid of cubic voxels, padded and brick-aligned.
@@ -71,6 +78,11 @@ impl Grid {
                 return Err(GridError::TooLarge(voxels.min(u64::MAX as f64) as u64));
             }
             dims[a] = voxels as u32;
+        }
+        // The flood fill keeps one entry per (x, y) column of bricks: bound that area.
+        let columns = (dims[0] as u64 >> BRICK_SHIFT) * (dims[1] as u64 >> BRICK_SHIFT);
+        if columns > MAX_COLUMNS {
+            return Err(GridError::TooManyColumns(columns));
         }
         Ok(Grid {
             origin,
@@ -191,6 +203,9 @@ mod tests {
         assert!(Grid::around(DVec3::ZERO, DVec3::ONE, f64::NAN, 2).is_err());
         assert!(Grid::around(DVec3::ZERO, DVec3::splat(f64::INFINITY), 1.0, 2).is_err());
         assert!(Grid::around(DVec3::ZERO, DVec3::splat(1e12), 1.0, 2).is_err());
+        // Thin but vast: each axis within limits, the cross-section too large.
+        let e = Grid::around(DVec3::ZERO, DVec3::new(1e7, 1e7, 1.0), 1.0, 2).unwrap_err();
+        assert!(matches!(e, GridError::TooManyColumns(_)), "{e}");
     }
 
     #[test]

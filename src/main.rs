@@ -142,7 +142,7 @@ enum Command {
     },
     /// Run the whole pipeline on a built-in assembly: no input file needed.
     Demo {
-        /// Directory for demo.vxm and demo_slice.png.
+        /// Directory for demo.vxm, demo_slice.png and demo.vps.
         #[arg(long, default_value = ".")]
         out_dir: PathBuf,
         /// Voxel size for the built-in model (about 120 units across).
@@ -475,7 +475,8 @@ fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output
     let a = axis as usize;
     let k = match (at, index) {
         (_, Some(i)) => i as i64,
-        (Some(w), None) => ((w - g.origin[a]) / g.voxel_size).floor() as i64,
+        (Some(w), None) if w.is_finite() => ((w - g.origin[a]) / g.voxel_size).floor() as i64,
+        (Some(w), None) => bail!("--at must be a finite coordinate, got {w}"),
         (None, None) => bail!("give --at or --index"),
     };
     if k < 0 || k >= g.dims[a] as i64 {
@@ -550,6 +551,22 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     for p in probes {
         println!("  value at ({}, {}, {}) = {}", p.x, p.y, p.z, f.value_at(p)?);
     }
+    let t = Instant::now();
+    let leaf = vps::pointshell::tree::LEAF_SIZE;
+    let (shell, _) = vps::generate::pointshell::pointshell(&mesh, &vm, leaf)?;
+    let ps_path = out_dir.join("demo.vps");
+    let bytes = write_pointshell(&ps_path, &shell, leaf)?;
+    let ts = shell.tree.stats();
+    println!(
+        "pointshell {}: {} points ({} interior, {} recovered), tree of {} nodes, depth {}, {bytes} bytes, {:.3} s",
+        ps_path.display(),
+        shell.len(),
+        shell.stats.interior_points,
+        shell.stats.boundary_points_recovered,
+        ts.nodes,
+        ts.depth,
+        t.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 

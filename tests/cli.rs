@@ -277,4 +277,6 @@ fn demo_runs_without_input() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path().join("demo.vxm").exists());
     assert!(dir.path().join("demo_slice.png").exists());
+    let info = json(&vps(&["info", p(&dir.path().join("demo.vps")), "--json"]));
+    assert!(info["points"].as_u64().unwrap() > 1000);
 }
