@@ -205,32 +205,22 @@ struct Window {
 
 const W: usize = BRICK as usize + 4;
 
-/// The 125 offsets of the 5×5×5 neighbourhood: as window index steps, as vectors, and their
-/// lengths, computed once.
+/// Lengths of the 125 offsets of the 5×5×5 neighbourhood, by row `(z + 2) * 5 + (y + 2)` and
+/// then `x + 2`, computed once.
 struct Neighbourhood {
-    offsets: [isize; 125],
-    vectors: [[i32; 3]; 125],
-    lengths: [f32; 125],
+    row_lengths: [[f32; 5]; 25],
 }
 
 static NEIGHBOURHOOD: std::sync::LazyLock<Neighbourhood> = std::sync::LazyLock::new(|| {
-    let mut n = Neighbourhood {
-        offsets: [0; 125],
-        vectors: [[0; 3]; 125],
-        lengths: [0.0; 125],
-    };
-    let mut k = 0;
+    let mut row_lengths = [[0.0; 5]; 25];
     for z in -2i32..=2 {
         for y in -2i32..=2 {
             for x in -2i32..=2 {
-                n.offsets[k] = (z as isize * W as isize + y as isize) * W as isize + x as isize;
-                n.vectors[k] = [x, y, z];
-                n.lengths[k] = ((x * x + y * y + z * z) as f32).sqrt();
-                k += 1;
+                row_lengths[((z + 2) * 5 + y + 2) as usize][(x + 2) as usize] = ((x * x + y * y + z * z) as f32).sqrt();
             }
         }
     }
-    n
+    Neighbourhood { row_lengths }
 });
 
 impl Window {
@@ -280,15 +270,24 @@ impl Window {
 
     /// The inward normal at local voxel `l`, and whether the triangle's normal had to be used.
     fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool) {
-        let base = ((l[2] as usize + 2) * W + l[1] as usize + 2) * W + l[0] as usize + 2;
+        // Row by row along x: five contiguous values per (y, z), so the inner loop unrolls.
         let (mut sx, mut sy, mut sz) = (0i32, 0i32, 0i32);
         let mut scale = 0.0f32;
-        for (k, (&off, o)) in NEIGHBOURHOOD.offsets.iter().zip(&NEIGHBOURHOOD.vectors).enumerate() {
-            let v = self.values[(base as isize + off) as usize] as i32;
-            sx += v * o[0];
-            sy += v * o[1];
-            sz += v * o[2];
-            scale += v.unsigned_abs() as f32 * NEIGHBOURHOOD.lengths[k];
+        for (zi, z) in (-2i32..=2).enumerate() {
+            for (yi, y) in (-2i32..=2).enumerate() {
+                let start = ((l[2] as usize + zi) * W + l[1] as usize + yi) * W + l[0] as usize;
+                let row: &[i8; 5] = self.values[start..start + 5].try_into().expect("five values");
+                let lengths = &NEIGHBOURHOOD.row_lengths[zi * 5 + yi];
+                let mut row_sum = 0i32;
+                for (xi, &v) in row.iter().enumerate() {
+                    let v = v as i32;
+                    row_sum += v;
+                    sx += v * (xi as i32 - 2);
+                    scale += v.unsigned_abs() as f32 * lengths[xi];
+                }
+                sy += row_sum * y;
+                sz += row_sum * z;
+            }
         }
         let sum = DVec3::new(sx as f64, sy as f64, sz as f64);
         let scale = scale as f64;
