@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 pub use navigate::{NavStats, Navigation};
 
-use crate::grid::{Grid, GridError, BRICK_VOXELS};
+use crate::grid::{Grid, GridError};
 use crate::mesh::Mesh;
 use crate::voxmap::fill::Outside;
 use crate::voxmap::layers::distance_layers;
@@ -193,6 +193,5 @@ pub fn assemble(
         push(at, end);
     }
     report.t_layers = t.elapsed();
-    debug_assert!(bricks.iter().all(|b| b.values.len() == BRICK_VOXELS));
     Voxmap::from_parts(grid, layers, bricks, inside)
 }
