@@ -8,7 +8,6 @@
 //! Orientation: `values[row * width + col]` with row 0 drawn at the *top*. The image's up is the
 //! slice's +v axis, so callers that hold rows in increasing v order pass them reversed.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Slices smaller than this (longer side, in voxels) are enlarged by an integer factor so that
@@ -355,19 +354,16 @@ fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
 pub fn slice_png(values: &[i8], width: u32, height: u32, layers: u8, path: &Path) -> Result<(), RenderError> {
     let img = slice_rgba(values, width, height, layers)?;
     let bytes = encode_png(&img)?;
-    let io = |source| RenderError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
-    tmp.write_all(&bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    crate::storage::write_atomically(path, &bytes).map_err(|e| match e {
+        crate::storage::StorageError::Io { source, .. } => RenderError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => RenderError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
+    })
 }
 
 #[cfg(test)]

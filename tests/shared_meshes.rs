@@ -7,6 +7,7 @@ use vps::generate::{surface, voxelize, VoxelizeParams};
 use vps::mesh::Mesh;
 use vps::reference::dense::{dense_surface, dense_voxmap};
 use vps::storage::{write_voxmap, VoxmapFile};
+use vps::voxmap::Voxmap;
 
 fn meshes_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("VPS_MESHES")
@@ -30,6 +31,24 @@ fn voxel_size_for(mesh: &Mesh, target: f64) -> f64 {
     (e.x * e.y * e.z / target).cbrt()
 }
 
+/// Load `name` from `dir` and voxelize it at the voxel size giving about `target` voxels;
+/// `None`, saying so, when the file is absent.
+fn voxelize_shared(dir: &std::path::Path, name: &str, target: f64, layers: u8) -> Option<(Mesh, Voxmap)> {
+    let path = dir.join(name);
+    if !path.exists() {
+        eprintln!("skipping {name}: not found");
+        return None;
+    }
+    let mesh = Mesh::load_obj(&path).unwrap();
+    let params = VoxelizeParams {
+        voxel_size: voxel_size_for(&mesh, target),
+        layers,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(&mesh, &params).unwrap();
+    Some((mesh, vm))
+}
+
 /// Small real meshes: the sparse voxmap equals the dense reference voxel for voxel, and
 /// watertight ones enclose an inside.
 #[test]
@@ -45,18 +64,9 @@ fn small_real_meshes_equal_dense_reference() {
         ("kuka_kr125.obj", false),
     ];
     for (name, watertight) in cases {
-        let path = dir.join(name);
-        if !path.exists() {
-            eprintln!("skipping {name}: not found");
+        let Some((mesh, vm)) = voxelize_shared(&dir, name, 1.5e6, 4) else {
             continue;
-        }
-        let mesh = Mesh::load_obj(&path).unwrap();
-        let params = VoxelizeParams {
-            voxel_size: voxel_size_for(&mesh, 1.5e6),
-            layers: 4,
-            ..Default::default()
         };
-        let (vm, _) = voxelize(&mesh, &params).unwrap();
         let grid = *vm.grid();
         let tris = surface::to_grid_units(&grid, &mesh.triangles);
         let dense = dense_voxmap(grid.dims, &dense_surface(&grid, &tris), 4);
@@ -94,18 +104,9 @@ fn real_meshes_round_trip_through_files() {
         "cessna_c172p.obj",
         "turbine_blade.obj.zst",
     ] {
-        let path = dir.join(name);
-        if !path.exists() {
-            eprintln!("skipping {name}: not found");
+        let Some((_, vm)) = voxelize_shared(&dir, name, 2e7, 5) else {
             continue;
-        }
-        let mesh = Mesh::load_obj(&path).unwrap();
-        let params = VoxelizeParams {
-            voxel_size: voxel_size_for(&mesh, 2e7),
-            layers: 5,
-            ..Default::default()
         };
-        let (vm, _) = voxelize(&mesh, &params).unwrap();
         let out = tmp.path().join("m.vxm");
         let w = write_voxmap(&out, &vm).unwrap();
         let f = VoxmapFile::open(&out).unwrap();

@@ -197,7 +197,7 @@ pub struct WriteReport {
 }
 
 /// The bytes of an open file: a mapping, or an owned copy aligned like one.
-enum Backing {
+pub(crate) enum Backing {
     Mapped(memmap2::Mmap),
     /// `u64` words keep the copy 8-byte aligned, as the in-place table views need.
     Owned {
@@ -207,7 +207,7 @@ enum Backing {
 }
 
 impl Backing {
-    fn owned(bytes: &[u8]) -> Backing {
+    pub(crate) fn owned(bytes: &[u8]) -> Backing {
         let mut words = vec![0u64; bytes.len().div_ceil(8)].into_boxed_slice();
         let dst: &mut [u8] = bytemuck::cast_slice_mut(&mut words);
         if let Some(d) = dst.get_mut(..bytes.len()) {
@@ -219,7 +219,7 @@ impl Backing {
         }
     }
 
-    fn bytes(&self) -> &[u8] {
+    pub(crate) fn bytes(&self) -> &[u8] {
         match self {
             Backing::Mapped(m) => m,
             Backing::Owned { words, len } => {
@@ -866,24 +866,7 @@ impl VoxmapWriter {
         if layers > MAX_LAYERS {
             return Err(invalid(format!("layers is {layers}, at most {MAX_LAYERS}")));
         }
-        let dir = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".vxm-").suffix(".tmp");
-        #[cfg(unix)]
-        {
-            // A temporary file is private by default; the finished file should be readable
-            // like any other the user creates (the umask still applies).
-            use std::os::unix::fs::PermissionsExt;
-            builder.permissions(std::fs::Permissions::from_mode(0o644));
-        }
-        let tmp = builder.tempfile_in(&dir).map_err(|source| StorageError::Io {
-            action: "create a temporary file in",
-            path: dir.clone(),
-            source,
-        })?;
+        let tmp = temp_file_beside(&path, ".vxm-")?;
         let compressor = new_compressor().map_err(|source| StorageError::Io {
             action: "set up zstd for",
             path: path.clone(),
@@ -1109,13 +1092,7 @@ impl VoxmapWriter {
             .map_err(self.io("seek in temporary file for"))?;
         tmp.write_all(bytemuck::bytes_of(&h))
             .map_err(self.io("write header of"))?;
-        tmp.as_file().sync_all().map_err(self.io("sync temporary file for"))?;
-        tmp.persist(&self.path).map_err(|e| StorageError::Io {
-            action: "rename temporary file to",
-            path: self.path.clone(),
-            source: e.error,
-        })?;
-        sync_parent(&self.path);
+        persist_synced(tmp, &self.path)?;
         Ok(WriteReport {
             file_bytes: h.file_bytes,
             uncompressed_bytes: counts.bricks_stored * BRICK_VOXELS as u64,
@@ -1134,8 +1111,54 @@ fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Make the rename itself durable. Best effort: some file systems cannot sync a directory,
-/// and the new file is complete either way.
+/// A temporary file in the directory of `path`, so that renaming it over `path` is atomic.
+/// Temporary files are private by default; the finished file should be readable like any
+/// other the user creates (the umask still applies).
+pub(crate) fn temp_file_beside(path: &Path, prefix: &str) -> Result<tempfile::NamedTempFile, StorageError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(prefix).suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    builder.tempfile_in(&dir).map_err(|source| StorageError::Io {
+        action: "create a temporary file in",
+        path: dir,
+        source,
+    })
+}
+
+/// Sync a finished temporary file, rename it over `path` and sync the directory, so that
+/// after a crash `path` holds either the old file or the whole new one.
+pub(crate) fn persist_synced(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), StorageError> {
+    let io = |action, source| StorageError::Io {
+        action,
+        path: path.to_path_buf(),
+        source,
+    };
+    tmp.as_file().sync_all().map_err(|e| io("sync temporary file for", e))?;
+    tmp.persist(path).map_err(|e| io("rename temporary file to", e.error))?;
+    sync_parent(path);
+    Ok(())
+}
+
+/// Write `bytes` to `path` atomically: a temporary file beside it, synced, then renamed.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageError> {
+    let mut tmp = temp_file_beside(path, ".vps-")?;
+    tmp.write_all(bytes).map_err(|source| StorageError::Io {
+        action: "write temporary file for",
+        path: path.to_path_buf(),
+        source,
+    })?;
+    persist_synced(tmp, path)
+}
+
+/// Sync the directory holding `path`, so a rename into it is durable.
 fn sync_parent(path: &Path) {
     #[cfg(unix)]
     if let Some(dir) = path.parent() {

@@ -6,13 +6,12 @@
 //! index without bounds surprises), and then serves the three sections as slices of the
 //! mapping.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
 
-use super::{mmap::map_file, StorageError};
+use super::{mmap::map_file, write_atomically, Backing, StorageError};
 use crate::pointshell::{Pointshell, PointshellStats, SphereNode, SphereTree};
 
 /// First bytes of every `.vps` file.
@@ -169,51 +168,6 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
     Ok(end)
 }
 
-/// Write `bytes` to a temporary file beside `path`, sync it, and rename it over `path`.
-pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageError> {
-    let io = |action: &'static str, source| StorageError::Io {
-        action,
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".vps-tmp-")
-        .tempfile_in(dir)
-        .map_err(|e| io("create a temporary file for", e))?;
-    tmp.write_all(bytes).map_err(|e| io("write", e))?;
-    tmp.as_file().sync_all().map_err(|e| io("sync", e))?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        // Temporary files are private (0600); the result should read like any other file.
-        let _ = tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    tmp.persist(path).map_err(|e| io("rename temporary file to", e.error))?;
-    super::sync_parent(path);
-    Ok(())
-}
-
-enum Backing {
-    Mapped(memmap2::Mmap),
-    Owned(Box<[u64]>, usize),
-}
-
-impl Backing {
-    fn bytes(&self) -> &[u8] {
-        match self {
-            Backing::Mapped(m) => m,
-            Backing::Owned(words, len) => {
-                let all: &[u8] = bytemuck::cast_slice(words);
-                &all[..*len]
-            }
-        }
-    }
-}
-
 /// An open `.vps` file. Its sections are read in place.
 pub struct PointshellFile {
     path: PathBuf,
@@ -238,9 +192,7 @@ impl PointshellFile {
 
     /// Validate a `.vps` held in memory (copied into aligned storage).
     pub fn from_bytes(bytes: &[u8]) -> Result<PointshellFile, StorageError> {
-        let mut words = vec![0u64; bytes.len().div_ceil(8)].into_boxed_slice();
-        bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
-        Self::validate(PathBuf::from("<memory>"), Backing::Owned(words, bytes.len()))
+        Self::validate(PathBuf::from("<memory>"), Backing::owned(bytes))
     }
 
     fn validate(path: PathBuf, data: Backing) -> Result<PointshellFile, StorageError> {
