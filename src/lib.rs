@@ -7,14 +7,17 @@
 //! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
 //! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ files or built in code;
 //! - [`generate`]: mesh → voxmap;
-//! - [`storage`]: the `.vxm` file, memory-mapped (format in `docs/FORMAT.md`);
+//! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
+//! - [`haptics`]: the contact query, force and torque from the two mapped files;
 //! - [`render`]: pictures of slices;
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
 #![cfg(target_endian = "little")]
 
+pub mod ffi;
 pub mod generate;
 pub mod geometry;
 pub mod grid;
+pub mod haptics;
 pub mod mesh;
 pub mod pointshell;
 pub mod reference;

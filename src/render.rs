@@ -330,6 +330,46 @@ fn glyph(ch: char) -> [u8; 5] {
         '-' => [0b000, 0b000, 0b111, 0b000, 0b000],
         '+' => [0b000, 0b010, 0b111, 0b010, 0b000],
         '.' => [0b000, 0b000, 0b000, 0b000, 0b010],
+        // Letters and punctuation, for plot titles and axis labels; lower case as upper.
+        'A' => [0b010, 0b101, 0b111, 0b101, 0b101],
+        'B' => [0b110, 0b101, 0b110, 0b101, 0b110],
+        'C' => [0b011, 0b100, 0b100, 0b100, 0b011],
+        'D' => [0b110, 0b101, 0b101, 0b101, 0b110],
+        'E' => [0b111, 0b100, 0b110, 0b100, 0b111],
+        'F' => [0b111, 0b100, 0b110, 0b100, 0b100],
+        'G' => [0b011, 0b100, 0b101, 0b101, 0b011],
+        'H' => [0b101, 0b101, 0b111, 0b101, 0b101],
+        'I' => [0b111, 0b010, 0b010, 0b010, 0b111],
+        'J' => [0b001, 0b001, 0b001, 0b101, 0b010],
+        'K' => [0b101, 0b101, 0b110, 0b101, 0b101],
+        'L' => [0b100, 0b100, 0b100, 0b100, 0b111],
+        'M' => [0b101, 0b111, 0b111, 0b101, 0b101],
+        'N' => [0b110, 0b101, 0b101, 0b101, 0b101],
+        'O' => [0b010, 0b101, 0b101, 0b101, 0b010],
+        'P' => [0b110, 0b101, 0b110, 0b100, 0b100],
+        'Q' => [0b010, 0b101, 0b101, 0b110, 0b011],
+        'R' => [0b110, 0b101, 0b110, 0b101, 0b101],
+        'S' => [0b011, 0b100, 0b010, 0b001, 0b110],
+        'T' => [0b111, 0b010, 0b010, 0b010, 0b010],
+        'U' => [0b101, 0b101, 0b101, 0b101, 0b111],
+        'V' => [0b101, 0b101, 0b101, 0b101, 0b010],
+        'W' => [0b101, 0b101, 0b111, 0b111, 0b101],
+        'X' => [0b101, 0b101, 0b010, 0b101, 0b101],
+        'Y' => [0b101, 0b101, 0b010, 0b010, 0b010],
+        'Z' => [0b111, 0b001, 0b010, 0b100, 0b111],
+        'µ' => [0b000, 0b101, 0b101, 0b110, 0b100],
+        ':' => [0b000, 0b010, 0b000, 0b010, 0b000],
+        '(' => [0b001, 0b010, 0b010, 0b010, 0b001],
+        ')' => [0b100, 0b010, 0b010, 0b010, 0b100],
+        '[' => [0b110, 0b100, 0b100, 0b100, 0b110],
+        ']' => [0b011, 0b001, 0b001, 0b001, 0b011],
+        '/' => [0b001, 0b001, 0b010, 0b100, 0b100],
+        ',' => [0b000, 0b000, 0b000, 0b010, 0b100],
+        '_' => [0b000, 0b000, 0b000, 0b000, 0b111],
+        '=' => [0b000, 0b111, 0b000, 0b111, 0b000],
+        '|' => [0b010, 0b010, 0b010, 0b010, 0b010],
+        '%' => [0b101, 0b001, 0b010, 0b100, 0b101],
+        c if c.is_ascii_lowercase() => glyph(c.to_ascii_uppercase()),
         _ => [0; 5],
     }
 }
@@ -353,6 +393,251 @@ fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
 /// only replaced by a complete new one.
 pub fn slice_png(values: &[i8], width: u32, height: u32, layers: u8, path: &Path) -> Result<(), RenderError> {
     let img = slice_rgba(values, width, height, layers)?;
+    let bytes = encode_png(&img)?;
+    crate::storage::write_atomically(path, &bytes).map_err(|e| match e {
+        crate::storage::StorageError::Io { source, .. } => RenderError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => RenderError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
+    })
+}
+
+/// One series of a plot: a value per query (or any index), drawn in its own panel with its
+/// own scale.
+#[derive(Clone, Copy, Debug)]
+pub struct Series<'a> {
+    /// Name, written above its panel in the series' colour: it labels the y axis.
+    pub label: &'a str,
+    /// The values, at x = 0, 1, 2, …; non-finite values leave a gap.
+    pub values: &'a [f64],
+    /// Line colour.
+    pub colour: [u8; 3],
+}
+
+/// Default colours of the first two series: orange and light blue, apart from each other and
+/// from the text on the dark background.
+pub const SERIES_COLOURS: [[u8; 3]; 2] = [[255, 150, 30], [90, 190, 255]];
+
+/// Plot canvas width, in pixels.
+pub const PLOT_WIDTH: u32 = 1000;
+/// Height of the drawing area of one panel, in pixels.
+pub const PLOT_PANEL_HEIGHT: u32 = 220;
+/// Plot area background: darker than [`BACKGROUND`], so the axes' box reads.
+pub const PLOT_AREA: [u8; 3] = [20, 20, 24];
+/// Axes and frame.
+pub const AXIS: [u8; 3] = [150, 150, 150];
+
+const PLOT_LEFT: u32 = 104;
+const PLOT_RIGHT: u32 = 24;
+const TITLE_BAND: u32 = 44;
+/// Above each panel's area: its series label.
+const PANEL_HEAD: u32 = 22;
+/// Below each panel's area: x tick values and the x-axis label.
+const PANEL_FOOT: u32 = 44;
+
+/// A short form of `v` in the plot font's characters (digits, `-`, `.`, `e`).
+fn axis_number(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let a = v.abs();
+    if (1e-3..1e6).contains(&a) {
+        // Four significant digits, trailing zeros dropped.
+        let decimals = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// Draw `s` with the built-in font at `dot` pixels per font dot, clipped to the image.
+fn draw_text_in(img: &mut RgbaImage, x: u32, y: u32, s: &str, colour: [u8; 3], dot: u32) {
+    for (k, ch) in s.chars().enumerate() {
+        for (r, bits) in glyph(ch).iter().enumerate() {
+            for c in 0..3u32 {
+                if bits & (0b100 >> c) != 0 {
+                    let px = x as u64 + (k as u64 * 4 + c as u64) * dot as u64;
+                    let py = y as u64 + r as u64 * dot as u64;
+                    for yy in py..py + dot as u64 {
+                        for xx in px..px + dot as u64 {
+                            if xx < img.width as u64 && yy < img.height as u64 {
+                                img.put(xx as u32, yy as u32, colour);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Width in pixels of `s` drawn at `dot` pixels per font dot.
+fn text_width_in(s: &str, dot: u32) -> u32 {
+    let n = s.chars().count() as u32;
+    n.saturating_mul(4).saturating_sub(1).saturating_mul(dot)
+}
+
+/// A line from (x0, y0) to (x1, y1), clipped to the image (Bresenham).
+fn draw_line(img: &mut RgbaImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), c: [u8; 3]) {
+    let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
+    let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
+    let (mut x, mut y, mut err) = (x0, y0, dx + dy);
+    loop {
+        if x >= 0 && y >= 0 && x < img.width as i64 && y < img.height as i64 {
+            img.put(x as u32, y as u32, c);
+        }
+        if x == x1 && y == y1 {
+            break;
+        }
+        let e2 = 2 * err;
+        if e2 >= dy {
+            err += dy;
+            x += sx;
+        }
+        if e2 <= dx {
+            err += dx;
+            y += sy;
+        }
+    }
+}
+
+/// Draw a line plot of `series`, one panel each, stacked, sharing the x axis (the index into
+/// the values, labelled `x_label`), under `title`.
+///
+/// Each panel has its own y scale, from the smaller of 0 and the series' minimum to the larger
+/// of 0 and its maximum, written at the axis' ends together with the x range, and the
+/// series' label above it in the series' colour. Text uses the built-in 3×5 font (letters,
+/// digits and a few signs; other characters are left blank). The image's `slice_*` fields
+/// cover the whole canvas.
+pub fn plot_series_rgba(title: &str, x_label: &str, series: &[Series<'_>]) -> RgbaImage {
+    let panels = series.len().max(1) as u32;
+    let panel_h = PANEL_HEAD + PLOT_PANEL_HEIGHT + PANEL_FOOT;
+    let (width, height) = (PLOT_WIDTH, TITLE_BAND + panels * panel_h);
+    let mut img = RgbaImage {
+        width,
+        height,
+        pixels: vec![0; width as usize * height as usize * 4],
+        slice_width: width,
+        slice_height: height,
+        zoom: 1,
+        shrink: 1,
+    };
+    img.fill(0, 0, width, height, BACKGROUND);
+    let tw = text_width_in(title, 3).min(width);
+    draw_text_in(&mut img, (width - tw) / 2, 14, title, TEXT, 3);
+
+    let area_w = width - PLOT_LEFT - PLOT_RIGHT;
+    for (p, s) in series.iter().enumerate() {
+        let top = TITLE_BAND + p as u32 * panel_h;
+        let area_top = top + PANEL_HEAD;
+        let area_bottom = area_top + PLOT_PANEL_HEIGHT - 1;
+        let (left, right) = (PLOT_LEFT, PLOT_LEFT + area_w - 1);
+        draw_text_in(&mut img, left, top + 4, s.label, s.colour, 2);
+        img.fill(left, area_top, area_w, PLOT_PANEL_HEIGHT, PLOT_AREA);
+        // Frame: the axes on the left and bottom, a fainter box around.
+        draw_line(
+            &mut img,
+            (left as i64, area_top as i64),
+            (left as i64, area_bottom as i64),
+            AXIS,
+        );
+        draw_line(
+            &mut img,
+            (left as i64, area_bottom as i64),
+            (right as i64, area_bottom as i64),
+            AXIS,
+        );
+
+        let finite = s.values.iter().copied().filter(|v| v.is_finite());
+        let (mut lo, mut hi) = finite.fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+        if hi - lo <= 0.0 || !(hi - lo).is_finite() {
+            // All zero (or a range too wide to draw): show 0 to 1.
+            (lo, hi) = if hi - lo <= 0.0 {
+                (lo, lo + 1.0)
+            } else {
+                (f64::MIN / 2.0, f64::MAX / 2.0)
+            };
+        }
+        // y-axis ticks: the maximum at the top, the minimum at the bottom, right-aligned.
+        for (v, y) in [(hi, area_top), (lo, area_bottom.saturating_sub(9))] {
+            let t = axis_number(v);
+            let w = text_width_in(&t, 2);
+            draw_text_in(&mut img, left.saturating_sub(8 + w), y, &t, TEXT, 2);
+            draw_line(&mut img, (left as i64 - 5, y as i64), (left as i64, y as i64), AXIS);
+        }
+        // x-axis ticks and label.
+        let n = s.values.len();
+        let last = n.saturating_sub(1);
+        let first_t = "0".to_string();
+        let last_t = last.to_string();
+        draw_text_in(&mut img, left, area_bottom + 6, &first_t, TEXT, 2);
+        let lw = text_width_in(&last_t, 2);
+        draw_text_in(
+            &mut img,
+            right + 1 - lw.min(right + 1),
+            area_bottom + 6,
+            &last_t,
+            TEXT,
+            2,
+        );
+        let xw = text_width_in(x_label, 2).min(area_w);
+        draw_text_in(&mut img, left + (area_w - xw) / 2, area_bottom + 24, x_label, TEXT, 2);
+        if n == 0 {
+            let msg = "NO DATA";
+            let mw = text_width_in(msg, 2);
+            draw_text_in(
+                &mut img,
+                left + (area_w - mw) / 2,
+                area_top + PLOT_PANEL_HEIGHT / 2,
+                msg,
+                AXIS,
+                2,
+            );
+            continue;
+        }
+
+        // The series: a line through consecutive finite values. Many points per pixel column
+        // draw that column's full range, so spikes stay visible.
+        let px = |i: usize| -> i64 {
+            left as i64
+                + 1
+                + if last == 0 {
+                    0
+                } else {
+                    (i as f64 / last as f64 * (area_w - 2) as f64).round() as i64
+                }
+        };
+        let py = |v: f64| -> i64 {
+            let f = ((v - lo) / (hi - lo)).clamp(0.0, 1.0);
+            area_bottom as i64 - 1 - (f * (PLOT_PANEL_HEIGHT - 3) as f64).round() as i64
+        };
+        let mut prev: Option<(i64, i64)> = None;
+        for (i, &v) in s.values.iter().enumerate() {
+            if !v.is_finite() {
+                prev = None;
+                continue;
+            }
+            let here = (px(i), py(v));
+            draw_line(&mut img, prev.unwrap_or(here), here, s.colour);
+            prev = Some(here);
+        }
+    }
+    img
+}
+
+/// Write [`plot_series_rgba`]'s picture as a PNG file at `path`, atomically as
+/// [`slice_png`] does.
+pub fn plot_series_png(title: &str, x_label: &str, series: &[Series<'_>], path: &Path) -> Result<(), RenderError> {
+    let img = plot_series_rgba(title, x_label, series);
     let bytes = encode_png(&img)?;
     crate::storage::write_atomically(path, &bytes).map_err(|e| match e {
         crate::storage::StorageError::Io { source, .. } => RenderError::Io {
@@ -528,5 +813,109 @@ mod tests {
             Err(RenderError::Io { path: p, .. }) => assert_eq!(p, path),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn plots_show_both_series_with_labels() {
+        let force: Vec<f64> = (0..500)
+            .map(|i| if i < 250 { 0.0 } else { (i - 250) as f64 * 0.5 })
+            .collect();
+        let points: Vec<f64> = (0..500).map(|i| if i < 250 { 0.0 } else { 1000.0 }).collect();
+        let series = [
+            Series {
+                label: "force magnitude",
+                values: &force,
+                colour: SERIES_COLOURS[0],
+            },
+            Series {
+                label: "points in contact",
+                values: &points,
+                colour: SERIES_COLOURS[1],
+            },
+        ];
+        let img = plot_series_rgba("haptics bench", "query", &series);
+        assert_eq!(img.pixels.len(), (img.width * img.height * 4) as usize);
+        let count = |c: [u8; 3], y0: u32, y1: u32| {
+            (y0..y1)
+                .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+                .filter(|&(x, y)| img.rgb(x, y) == c)
+                .count()
+        };
+        let panel_h = PANEL_HEAD + PLOT_PANEL_HEIGHT + PANEL_FOOT;
+        let (p0, p1) = (TITLE_BAND, TITLE_BAND + panel_h);
+        // Each series is drawn in its own panel: its line plus its label.
+        assert!(count(SERIES_COLOURS[0], p0, p1) > 300);
+        assert!(count(SERIES_COLOURS[1], p1, p1 + panel_h) > 300);
+        assert_eq!(count(SERIES_COLOURS[0], p1, img.height), 0);
+        assert_eq!(count(SERIES_COLOURS[1], 0, p1), 0);
+        // Title, ticks and labels are written.
+        assert!(count(TEXT, 0, TITLE_BAND) > 50);
+        assert!(count(TEXT, p0, p1) > 50);
+        // The second series jumps from 0 (bottom of its area) to its maximum (top).
+        let area_top = p1 + PANEL_HEAD;
+        let area_bottom = area_top + PLOT_PANEL_HEIGHT - 1;
+        let col = |x: u32| {
+            (area_top..=area_bottom)
+                .filter(|&y| img.rgb(x, y) == SERIES_COLOURS[1])
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(col(PLOT_LEFT + 10), vec![area_bottom - 1]);
+        assert_eq!(
+            col(PLOT_WIDTH - PLOT_RIGHT - 10),
+            vec![area_bottom - 1 - (PLOT_PANEL_HEIGHT - 3)]
+        );
+        assert_eq!(axis_number(1000.0), "1000");
+        assert_eq!(axis_number(124.75), "124.8");
+        assert_eq!(axis_number(0.5), "0.5");
+        assert_eq!(axis_number(-2.5e7), "-2.50e7");
+    }
+
+    #[test]
+    fn plots_survive_odd_input_and_write_png() {
+        let odd = [f64::NAN, 1.0, f64::INFINITY, -3.0, f64::MAX, -f64::MAX];
+        let img = plot_series_rgba(
+            &"very long title ".repeat(40),
+            "x",
+            &[
+                Series {
+                    label: "odd",
+                    values: &odd,
+                    colour: [0, 255, 0],
+                },
+                Series {
+                    label: "empty",
+                    values: &[],
+                    colour: [255, 0, 0],
+                },
+                Series {
+                    label: "one",
+                    values: &[7.0],
+                    colour: [0, 0, 255],
+                },
+            ],
+        );
+        assert!(img.pixels.chunks(4).any(|p| p[..3] == [0, 255, 0]));
+        assert!(img.pixels.chunks(4).any(|p| p[..3] == [0, 0, 255]));
+        let _ = plot_series_rgba("", "", &[]);
+
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plot.png");
+        let v = [1.0, 2.0, 3.0];
+        plot_series_png(
+            "t",
+            "x",
+            &[Series {
+                label: "v",
+                values: &v,
+                colour: SERIES_COLOURS[0],
+            }],
+            &path,
+        )
+        .unwrap();
+        let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
+        let mut reader = png::Decoder::new(file).read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!(info.width, PLOT_WIDTH);
     }
 }

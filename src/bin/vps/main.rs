@@ -1,5 +1,7 @@
 //! `vps`: the command line. Thin: parse, call the library, print.
 
+mod haptics;
+
 use std::io::{BufRead, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -169,6 +171,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Force and torque of a voxmap on a posed pointshell (one haptic query).
+    Contact(haptics::ContactArgs),
+    /// Replay a trajectory (or a built-in sweep into contact) and print query latency and throughput.
+    HapticsBench(haptics::BenchArgs),
 }
 
 fn main() {
@@ -254,6 +260,8 @@ fn run(cli: Cli) -> Result<()> {
             navigation,
             json,
         } => bench(mesh.as_deref(), &targets, &voxel_sizes, layers, &navigation, json),
+        Command::Contact(args) => haptics::run_contact(args),
+        Command::HapticsBench(args) => haptics::run_bench(args),
     }
 }
 

@@ -1,0 +1,112 @@
+/*
+ * vps.h: the C ABI of the `vps` crate (Voxmap-PointShell haptic rendering).
+ *
+ * Build the library with `cargo build --release` (gives target/release/libvps.so) and link
+ * with `cc my.c -Iinclude -Ltarget/release -lvps`. The guide is docs/C_ABI.md; the Rust side
+ * is src/ffi.rs, and this header must match it exactly.
+ *
+ * Frames and units:
+ *   - A pose maps the pointshell's frame to the voxmap's world frame:
+ *       x_world = R(q) * x_pointshell + t,
+ *     given as 7 doubles {tx, ty, tz, qw, qx, qy, qz} (quaternion w first; it is normalised,
+ *     so it need only be finite and non-zero).
+ *   - Lengths are in the world units the files were generated in.
+ *   - Force is in the voxmap's world frame, in stiffness x length units; torque is in the
+ *     voxmap's world frame too, about the pose's translation t (the posed pointshell origin).
+ *
+ * Errors: functions that can fail take `char *err, size_t err_len`. On failure they write a
+ * NUL-terminated message there (cut to err_len bytes, at a UTF-8 character boundary); on
+ * success they write an empty string. err may be NULL (or err_len 0) to ignore messages.
+ * No function aborts or unwinds on bad input: NULL pointers are reported as errors.
+ *
+ * Threads: handles are read-only once opened. Any number of threads may call vps_contact on
+ * the same handles at once; only closing a handle must wait until no thread uses it.
+ *
+ * Files: `.vxm` and `.vps` files are memory-mapped and never rewritten in place (writers
+ * rename a new file over the old name). A handle keeps reading the file it opened, even
+ * after the path is replaced; open a new handle to see the new file.
+ */
+#ifndef VPS_H
+#define VPS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Return codes of vps_contact. */
+#define VPS_OK 0           /* success */
+#define VPS_ERR_NULL 1     /* a required pointer argument is NULL */
+#define VPS_ERR_POSE 2     /* the pose has a NaN/infinite component or a zero quaternion */
+#define VPS_ERR_PARAM 3    /* stiffness negative or not finite, or budget_us NaN */
+#define VPS_ERR_STORAGE 4  /* a file could not be read (e.g. a corrupt brick, found when a query reads it) */
+#define VPS_ERR_INTERNAL 5 /* an internal error (a caught panic); please report it */
+
+/* An open `.vxm` voxmap with a cache of decompressed bricks. Opaque. */
+typedef struct vps_voxmap vps_voxmap;
+
+/* An open `.vps` pointshell (points, normals and sphere tree). Opaque. */
+typedef struct vps_pointshell vps_pointshell;
+
+/* The result of a contact query (vps_contact). Vectors are in the voxmap's world frame. */
+typedef struct vps_contact_result {
+    double force[3];              /* total force on the pointshell's object */
+    double torque[3];             /* total torque about the pose's translation */
+    uint64_t points_in_contact;   /* points tested that lie in a voxel with value >= 0 */
+    uint64_t points_tested;       /* points whose voxel was looked up */
+    uint64_t nodes_tested;        /* sphere-tree nodes tested */
+    uint64_t nodes_culled;        /* nodes skipped because the voxmap proves them outside */
+    uint64_t nodes_approximated;  /* nodes not refined because the budget ran out */
+    uint64_t points_approximated; /* points below those nodes */
+    double max_penetration;       /* largest penetration of a tested point, world units (0 if none) */
+    double micros;                /* wall time of the query, microseconds */
+    double force_error_bound;     /* upper bound on |force - exact force| (0 when complete) */
+    double torque_error_bound;    /* upper bound on |torque - exact torque| (0 when complete) */
+    int32_t complete;             /* 1: every point tested (always without a budget); 0: budget ran out */
+    int32_t reserved;             /* always 0 */
+} vps_contact_result;
+
+/*
+ * Open and map a `.vxm` voxmap. Returns a handle, or NULL with a message in err (missing
+ * file, not a .vxm, bad checksum, unsupported version, ...). Close it with vps_voxmap_close.
+ * path: NUL-terminated; its bytes are the file name.
+ */
+vps_voxmap *vps_voxmap_open(const char *path, char *err, size_t err_len);
+
+/* Close a voxmap handle and unmap its file. NULL is a no-op. */
+void vps_voxmap_close(vps_voxmap *voxmap);
+
+/*
+ * Open and map a `.vps` pointshell. Returns a handle, or NULL with a message in err.
+ * Close it with vps_pointshell_close.
+ */
+vps_pointshell *vps_pointshell_open(const char *path, char *err, size_t err_len);
+
+/* Close a pointshell handle and unmap its file. NULL is a no-op. */
+void vps_pointshell_close(vps_pointshell *pointshell);
+
+/*
+ * The force and torque the voxmap exerts on the pointshell at a pose.
+ *
+ *   pose       7 doubles {tx, ty, tz, qw, qx, qy, qz}: pointshell frame -> voxmap world frame.
+ *   stiffness  force per unit of penetration per point; finite and >= 0.
+ *   budget_us  <= 0: the exact answer (deterministic: the same bits in every process and on
+ *              any number of threads). > 0: time-critical; stop refining the sphere tree after
+ *              this many microseconds, and report the error bounds (out->complete may be 0).
+ *   out        filled on success; left unchanged on failure.
+ *
+ * Returns VPS_OK (0), or a VPS_ERR_* code with a message in err.
+ */
+int vps_contact(const vps_voxmap *voxmap, const vps_pointshell *pointshell, const double pose[7], double stiffness,
+                double budget_us, vps_contact_result *out, char *err, size_t err_len);
+
+/* The library's version, e.g. "0.1.0": a static string, never to be freed. */
+const char *vps_version(void);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* VPS_H */

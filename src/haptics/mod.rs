@@ -1,0 +1,37 @@
+//! The haptic query: the force and torque a voxmap exerts on a posed pointshell (the formula
+//! and its sign conventions are in `docs/HAPTICS.md`).
+//!
+//! This room reads only storage types: a [`CachedVoxmap`] over a `.vxm` file and a
+//! [`PointshellFile`](crate::storage::pointshell::PointshellFile), both memory-mapped, so
+//! many processes can query the same files and share the page cache.
+//!
+//! - [`contact`] walks the pointshell's sphere tree and skips every sphere the voxmap proves to
+//!   be outside; [`contact_brute_force`] tests every point, and gives the same sums.
+//! - With a time budget, [`contact`] refines the tree breadth-first and stops when the budget is
+//!   spent: unrefined spheres stand for their points, and the result carries an error bound
+//!   (Barbič & James 2007).
+
+mod cache;
+mod pose;
+mod query;
+pub mod trajectory;
+
+pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, DEFAULT_CACHE_BYTES};
+pub use pose::{Pose, PoseError};
+pub use query::{contact, contact_brute_force, Contact, ContactParams, BLOCK_POINTS};
+
+use crate::storage::StorageError;
+
+/// Errors of a contact query.
+#[derive(Debug, thiserror::Error)]
+pub enum HapticsError {
+    /// A file could not be read (a corrupt brick is found only when a query first reads it).
+    #[error(transparent)]
+    Storage(#[from] StorageError),
+    /// The pose is not a rigid transform.
+    #[error(transparent)]
+    Pose(#[from] PoseError),
+    /// A parameter is out of range.
+    #[error("invalid contact parameter: {0}")]
+    Params(String),
+}

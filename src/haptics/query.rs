@@ -1,0 +1,513 @@
+//! Force and torque on a posed pointshell: the exact walk with sphere-tree culling, the
+//! brute-force reference, and the time-critical walk.
+//!
+//! Determinism: the exact walk cuts the tree into *blocks* — the highest nodes with at most
+//! [`BLOCK_POINTS`] points — that depend only on the tree. Each block is summed on one thread,
+//! in point order, and the block sums are added in block order. So the result does not depend on
+//! the number of threads, and, because a culled node holds no point in contact (adding nothing
+//! is exact in floating point), the culled walk and the brute-force walk give the same bits.
+
+use std::time::{Duration, Instant};
+
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::cache::{CachedVoxmap, Cursor};
+use super::pose::Pose;
+use super::HapticsError;
+use crate::pointshell::tree::SphereNode;
+use crate::storage::pointshell::PointshellFile;
+use crate::storage::StorageError;
+
+/// The exact walk sums the points of each node of at most this many points on one thread.
+/// Smaller blocks balance two cores better; larger ones cost fewer tasks. Changing it changes
+/// the rounding of the sums (never the counts), so it is a constant, not a parameter.
+pub const BLOCK_POINTS: u32 = 2048;
+
+/// Below this many candidate points a query runs on the calling thread: waking the pool costs
+/// more than it saves.
+const PARALLEL_MIN_POINTS: u64 = 8192;
+
+/// The time-critical walk splits a tree level into chunks of this many nodes, and checks the
+/// clock every [`CLOCK_EVERY`] nodes.
+const LEVEL_CHUNK: usize = 256;
+const CLOCK_EVERY: usize = 16;
+
+/// Planning the time-critical walk: the time per node assumed before any is measured, and the
+/// least assumed after (a level of a few nodes measures mostly the clock).
+const INITIAL_NODE_SECONDS: f64 = 100e-9;
+const MIN_NODE_SECONDS: f64 = 10e-9;
+
+/// Rounding margin for culling: a sphere's radius, in voxels, is inflated by this factor and
+/// term, which covers the `f32` containment check of the tree and the `f64` posing.
+const CULL_RELATIVE_MARGIN: f64 = 1e-5;
+const CULL_ABSOLUTE_MARGIN: f64 = 1e-6;
+
+/// What the time-critical walk makes of a chunk of a level: its sums and the next level's nodes.
+type LevelPart = Result<(Contact, Vec<usize>), StorageError>;
+
+/// What one look-up proves of a sphere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Class {
+    /// No point of it lies in a voxel ≥ 0.
+    Outside,
+    /// Every point of it lies in a voxel ≥ 0.
+    Inside,
+    /// Either may hold.
+    Straddles,
+}
+
+/// How to query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// Force per unit of penetration per point (`K` in `docs/HAPTICS.md`); finite and ≥ 0.
+    pub stiffness: f64,
+    /// Time-critical mode: stop refining when this much time has passed since the call, and
+    /// let unrefined spheres stand for their points. `None`: exact.
+    pub budget: Option<Duration>,
+}
+
+impl Default for ContactParams {
+    fn default() -> ContactParams {
+        ContactParams {
+            stiffness: 1.0,
+            budget: None,
+        }
+    }
+}
+
+/// The result of a query. Vectors are in the voxmap's world frame; torque is about the
+/// pointshell frame's origin (the pose's translation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Contact {
+    /// Total force on the pointshell's object.
+    pub force: DVec3,
+    /// Total torque about the posed pointshell origin.
+    pub torque: DVec3,
+    /// Points tested that lie in a voxel with value ≥ 0.
+    pub points_in_contact: u64,
+    /// Points whose voxel was looked up.
+    pub points_tested: u64,
+    /// Sphere-tree nodes tested (one look-up each).
+    pub nodes_tested: u64,
+    /// Nodes skipped because the voxmap proves their sphere outside.
+    pub nodes_culled: u64,
+    /// Largest penetration of a tested point, in world units (0 without contact).
+    pub max_penetration: f64,
+    /// Wall time of the query, in microseconds.
+    pub micros: f64,
+    /// False when a time budget ran out and some nodes stand for their points.
+    pub complete: bool,
+    /// Nodes whose points were not tested because the budget ran out.
+    pub nodes_approximated: u64,
+    /// Points below those nodes.
+    pub points_approximated: u64,
+    /// Upper bound on `|force − exact force|` (0 when complete).
+    pub force_error_bound: f64,
+    /// Upper bound on `|torque − exact torque|` (0 when complete).
+    pub torque_error_bound: f64,
+}
+
+impl Contact {
+    fn merge(&mut self, o: &Contact) {
+        self.force += o.force;
+        self.torque += o.torque;
+        self.points_in_contact += o.points_in_contact;
+        self.points_tested += o.points_tested;
+        self.nodes_tested += o.nodes_tested;
+        self.nodes_culled += o.nodes_culled;
+        self.max_penetration = self.max_penetration.max(o.max_penetration);
+        self.nodes_approximated += o.nodes_approximated;
+        self.points_approximated += o.points_approximated;
+        self.force_error_bound += o.force_error_bound;
+        self.torque_error_bound += o.torque_error_bound;
+    }
+}
+
+/// A pose, the voxmap's grid and the stiffness folded into what each point needs.
+struct Frame<'a> {
+    voxmap: &'a CachedVoxmap,
+    nodes: &'a [SphereNode],
+    points: &'a [Vec3],
+    normals: &'a [Vec3],
+    rot: DMat3,
+    /// `R · origin` of the pointshell: lever arms are `R · p + lever0`.
+    lever0: DVec3,
+    /// Grid units of a lever arm `r` are `r / s + units0`.
+    units0: DVec3,
+    inv_s: f64,
+    s: f64,
+    k: f64,
+    dims: DVec3,
+    layers: i32,
+}
+
+impl<'a> Frame<'a> {
+    fn new(
+        voxmap: &'a CachedVoxmap,
+        shell: &'a PointshellFile,
+        pose: &Pose,
+        params: &ContactParams,
+    ) -> Result<Frame<'a>, HapticsError> {
+        if !(params.stiffness.is_finite() && params.stiffness >= 0.0) {
+            return Err(HapticsError::Params(format!(
+                "stiffness must be finite and >= 0, got {}",
+                params.stiffness
+            )));
+        }
+        // Re-check the pose: its fields are public.
+        let pose = Pose::new(pose.translation.to_array(), {
+            let q = pose.rotation;
+            [q.w, q.x, q.y, q.z]
+        })?;
+        let grid = voxmap.file().grid();
+        let rot = pose.matrix();
+        let s = grid.voxel_size;
+        Ok(Frame {
+            voxmap,
+            nodes: shell.nodes(),
+            points: shell.points(),
+            normals: shell.normals(),
+            rot,
+            lever0: rot * shell.header().origin,
+            units0: (pose.translation - grid.origin) / s,
+            inv_s: 1.0 / s,
+            s,
+            k: params.stiffness,
+            dims: DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64),
+            layers: voxmap.file().layers() as i32,
+        })
+    }
+
+    /// Lever arm (world offset from the pose origin) and grid units of a pointshell point.
+    #[inline]
+    fn place(&self, p: Vec3) -> (DVec3, DVec3) {
+        let r = self.rot * p.as_dvec3() + self.lever0;
+        (r, r * self.inv_s + self.units0)
+    }
+
+    /// The penetration of a point of normal `n` in voxel `v` of value `value ≥ 0` at grid
+    /// units `u`: layer depth plus the distance to the tangent plane through the voxel centre.
+    #[inline]
+    fn penetration(&self, value: i8, v: [i64; 3], u: DVec3, n_world: DVec3) -> f64 {
+        let centre = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
+        self.s * (value as f64 + (centre - u).dot(n_world))
+    }
+
+    #[inline]
+    fn test_point(&self, cur: &mut Cursor<'_>, i: usize, acc: &mut Contact) -> Result<(), StorageError> {
+        acc.points_tested += 1;
+        let (r, u) = self.place(self.points[i]);
+        let (value, v) = cur.value_at_units(u)?;
+        if value < 0 {
+            return Ok(());
+        }
+        acc.points_in_contact += 1;
+        let n = self.rot * self.normals[i].as_dvec3();
+        let d = self.penetration(value, v, u, n);
+        if d > 0.0 {
+            let f = n * (self.k * d);
+            acc.force += f;
+            acc.torque += r.cross(f);
+            acc.max_penetration = acc.max_penetration.max(d);
+        }
+        Ok(())
+    }
+
+    /// Whether the voxmap proves that no point of `node` lies in a voxel ≥ 0.
+    #[inline]
+    fn is_outside(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<bool, StorageError> {
+        Ok(self.classify(cur, node)? == Class::Outside)
+    }
+
+    /// What the voxmap proves of a node's sphere, from one look-up at its centre.
+    ///
+    /// A point within `r` of the centre lies at most `m = floor(r/s) + 1` voxels away on each
+    /// axis (`m ≤ k − 1` when `r/s < k − 1`). A voxel of value −k has no voxel ≥ 0 within
+    /// chessboard distance k − 1 (outer layers are chessboard distances; far outside, −(N+1),
+    /// means at least N+1), so a centre value −k with `r/s < k − 1` proves the sphere outside.
+    /// Going the other way, values fall by at most 1 per voxel step except once, by 2, from +1
+    /// to −1 across a diagonal, so a centre value `v ≥ m + 1` proves every point in a voxel ≥ 0.
+    /// A sphere wholly beyond the grid is outside too.
+    #[inline]
+    fn classify(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<Class, StorageError> {
+        let (_, u) = self.place(node.center());
+        let r = node.radius as f64 * self.inv_s * (1.0 + CULL_RELATIVE_MARGIN) + CULL_ABSOLUTE_MARGIN;
+        let beyond = (DVec3::ZERO - u).max(u - self.dims).max(DVec3::ZERO);
+        if beyond != DVec3::ZERO {
+            return Ok(if beyond.length() > r {
+                Class::Outside
+            } else {
+                Class::Straddles
+            });
+        }
+        let (value, _) = cur.value_at_units(u)?;
+        let value = value as i32;
+        if value < 0 && r < (-value - 1) as f64 {
+            Ok(Class::Outside)
+        } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
+            Ok(Class::Inside)
+        } else {
+            Ok(Class::Straddles)
+        }
+    }
+
+    /// Depth-first walk below `root` (already found not outside when `root_tested`), left
+    /// child first, so points are summed in index order. Below a node proved inside, every
+    /// point is tested without testing more nodes.
+    fn walk(&self, root: usize, root_tested: bool, acc: &mut Contact) -> Result<(), StorageError> {
+        let mut cur = self.voxmap.cursor();
+        let mut stack: Vec<(usize, bool)> = Vec::with_capacity(64);
+        stack.push((root, root_tested));
+        while let Some((i, tested)) = stack.pop() {
+            let node = &self.nodes[i];
+            let mut inside = false;
+            if !tested {
+                acc.nodes_tested += 1;
+                match self.classify(&mut cur, node)? {
+                    Class::Outside => {
+                        acc.nodes_culled += 1;
+                        continue;
+                    }
+                    Class::Inside => inside = true,
+                    Class::Straddles => {}
+                }
+            }
+            match node.children() {
+                Some([a, b]) if !inside => {
+                    stack.push((b, false));
+                    stack.push((a, false));
+                }
+                _ => {
+                    for j in node.points() {
+                        self.test_point(&mut cur, j, acc)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The blocks of the tree, in point order, each as its root. With `cull`, blocks under a
+    /// culled node are dropped, and the blocks returned have been tested.
+    fn blocks(&self, cull: bool, acc: &mut Contact) -> Result<Vec<usize>, StorageError> {
+        let mut out = Vec::new();
+        if self.nodes.is_empty() {
+            return Ok(out);
+        }
+        let mut cur = self.voxmap.cursor();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i];
+            if cull {
+                acc.nodes_tested += 1;
+                if self.is_outside(&mut cur, node)? {
+                    acc.nodes_culled += 1;
+                    continue;
+                }
+            }
+            match node.children() {
+                Some([a, b]) if node.point_count > BLOCK_POINTS => {
+                    stack.push(b);
+                    stack.push(a);
+                }
+                _ => out.push(i),
+            }
+        }
+        Ok(out)
+    }
+
+    /// Sum `blocks` with `f`, in parallel when they hold enough points, adding the block sums
+    /// in block order.
+    fn sum_blocks(
+        &self,
+        blocks: &[usize],
+        acc: &mut Contact,
+        f: impl Fn(usize, &mut Contact) -> Result<(), StorageError> + Sync,
+    ) -> Result<(), StorageError> {
+        let points: u64 = blocks.iter().map(|&b| self.nodes[b].point_count as u64).sum();
+        let one = |&b: &usize| {
+            let mut part = Contact::default();
+            f(b, &mut part).map(|_| part)
+        };
+        let parts: Vec<Contact> = if points >= PARALLEL_MIN_POINTS && blocks.len() > 1 {
+            blocks.par_iter().map(one).collect::<Result<_, _>>()?
+        } else {
+            blocks.iter().map(one).collect::<Result<_, _>>()?
+        };
+        for p in &parts {
+            acc.merge(p);
+        }
+        Ok(())
+    }
+
+    /// Stand-in for the untested points of `node` when the budget has run out: its points, as
+    /// if all sat at its centre with the cone axis as normal, plus a bound on the error (see
+    /// `docs/HAPTICS.md`).
+    fn approximate(&self, cur: &mut Cursor<'_>, node: &SphereNode, acc: &mut Contact) -> Result<(), StorageError> {
+        acc.nodes_approximated += 1;
+        acc.points_approximated += node.point_count as u64;
+        let (r, u) = self.place(node.center());
+        let inside_grid = u.cmpge(DVec3::ZERO).all() && u.cmplt(self.dims).all();
+        let (value, v) = cur.value_at_units(u)?;
+        // Values change by at most 1 per voxel step, except one step of 2 from −1 to +1
+        // across a diagonal, and a point within r is at most floor(r/s) + 1 steps away.
+        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + 1;
+        let v_max = if inside_grid {
+            (value as i32 + steps + 1).min(self.layers + 1)
+        } else {
+            self.layers + 1
+        };
+        if v_max < 0 {
+            return Ok(());
+        }
+        let count = node.point_count as f64;
+        // Each point's penetration is at most s·v_max plus its distance to its voxel centre.
+        let d_max = self.s * (v_max as f64 + 0.75f64.sqrt());
+        let bound = 2.0 * self.k * count * d_max;
+        acc.force_error_bound += bound;
+        acc.torque_error_bound += bound * (r.length() + node.radius as f64);
+        let axis = node.cone_axis().as_dvec3();
+        if value >= 0 && axis.length_squared() > 0.0 {
+            let n = (self.rot * axis).normalize();
+            let d = self.penetration(value, v, u, n);
+            if d > 0.0 {
+                let f = n * (self.k * count * d);
+                acc.force += f;
+                acc.torque += r.cross(f);
+            }
+        }
+        Ok(())
+    }
+
+    /// Breadth-first refinement until `deadline`.
+    ///
+    /// Each level is planned before it starts: refining a node costs about one node's time now
+    /// and, if the budget then runs out, the approximation of its two children later; leaving it
+    /// costs its own approximation. With `c` the measured time per node, `L` nodes in the level
+    /// and `R` time left, refining the first `P` nodes costs `(L + 2P)·c`, so
+    /// `P = (R/c − L) / 2`. The clock is still read every [`CLOCK_EVERY`] nodes in case the
+    /// estimate was low.
+    fn walk_budgeted(&self, deadline: Instant, acc: &mut Contact) -> Result<(), StorageError> {
+        let mut level: Vec<usize> = if self.nodes.is_empty() { vec![] } else { vec![0] };
+        // Seconds per node, including a leaf's points; replaced by each level's measurement.
+        let mut cost = INITIAL_NODE_SECONDS;
+        while !level.is_empty() {
+            let started = Instant::now();
+            let left = deadline.saturating_duration_since(started).as_secs_f64();
+            let l = level.len() as f64;
+            let refine = if left >= 3.0 * l * cost {
+                level.len()
+            } else {
+                ((left / cost - l) / 2.0).max(0.0) as usize
+            };
+            let (todo, rest) = level.split_at(refine.min(level.len()));
+            let refine_chunk = |nodes: &[usize]| -> LevelPart {
+                let mut part = Contact::default();
+                let mut next = Vec::new();
+                let mut cur = self.voxmap.cursor();
+                for (at, &i) in nodes.iter().enumerate() {
+                    if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
+                        for &j in &nodes[at..] {
+                            self.approximate(&mut cur, &self.nodes[j], &mut part)?;
+                        }
+                        break;
+                    }
+                    let node = &self.nodes[i];
+                    part.nodes_tested += 1;
+                    if self.is_outside(&mut cur, node)? {
+                        part.nodes_culled += 1;
+                        continue;
+                    }
+                    match node.children() {
+                        Some([a, b]) => next.extend([a, b]),
+                        None => {
+                            for j in node.points() {
+                                self.test_point(&mut cur, j, &mut part)?;
+                            }
+                        }
+                    }
+                }
+                Ok((part, next))
+            };
+            let approximate_chunk = |nodes: &[usize]| -> LevelPart {
+                let mut part = Contact::default();
+                let mut cur = self.voxmap.cursor();
+                for &j in nodes {
+                    self.approximate(&mut cur, &self.nodes[j], &mut part)?;
+                }
+                Ok((part, Vec::new()))
+            };
+            let chunked = |nodes: &[usize], f: &(dyn Fn(&[usize]) -> LevelPart + Sync)| {
+                if nodes.len() > 2 * LEVEL_CHUNK {
+                    nodes.par_chunks(LEVEL_CHUNK).map(f).collect::<Result<Vec<_>, _>>()
+                } else {
+                    f(nodes).map(|r| vec![r])
+                }
+            };
+            let refined = chunked(todo, &refine_chunk)?;
+            if !todo.is_empty() {
+                let measured = started.elapsed().as_secs_f64() / todo.len() as f64;
+                cost = measured.max(MIN_NODE_SECONDS);
+            }
+            let approximated = chunked(rest, &approximate_chunk)?;
+            let mut next_level = Vec::with_capacity(refined.iter().map(|p| p.1.len()).sum());
+            for (part, next) in refined.into_iter().chain(approximated) {
+                acc.merge(&part);
+                next_level.extend(next);
+            }
+            level = next_level;
+        }
+        Ok(())
+    }
+}
+
+/// The force and torque the voxmap exerts on the pointshell at `pose`.
+///
+/// Walks the sphere tree and skips every sphere the voxmap proves to be outside. Without a
+/// budget the result is exact and equal, bit for bit, to [`contact_brute_force`]'s, whatever
+/// the number of threads. With a budget, see [`ContactParams::budget`].
+pub fn contact(
+    voxmap: &CachedVoxmap,
+    shell: &PointshellFile,
+    pose: &Pose,
+    params: &ContactParams,
+) -> Result<Contact, HapticsError> {
+    let start = Instant::now();
+    let frame = Frame::new(voxmap, shell, pose, params)?;
+    let mut acc = Contact::default();
+    match params.budget {
+        None => {
+            let blocks = frame.blocks(true, &mut acc)?;
+            frame.sum_blocks(&blocks, &mut acc, |b, part| frame.walk(b, true, part))?;
+        }
+        Some(budget) => frame.walk_budgeted(start + budget, &mut acc)?,
+    }
+    acc.complete = acc.nodes_approximated == 0;
+    acc.micros = start.elapsed().as_secs_f64() * 1e6;
+    Ok(acc)
+}
+
+/// The reference: every point tested, no tree walk (the tree only cuts the points into the
+/// blocks that make the sum deterministic). The budget is ignored.
+pub fn contact_brute_force(
+    voxmap: &CachedVoxmap,
+    shell: &PointshellFile,
+    pose: &Pose,
+    params: &ContactParams,
+) -> Result<Contact, HapticsError> {
+    let start = Instant::now();
+    let frame = Frame::new(voxmap, shell, pose, params)?;
+    let mut acc = Contact::default();
+    let blocks = frame.blocks(false, &mut acc)?;
+    frame.sum_blocks(&blocks, &mut acc, |b, part| {
+        let mut cur = voxmap.cursor();
+        for j in frame.nodes[b].points() {
+            frame.test_point(&mut cur, j, part)?;
+        }
+        Ok(())
+    })?;
+    acc.complete = true;
+    acc.micros = start.elapsed().as_secs_f64() * 1e6;
+    Ok(acc)
+}

@@ -1,0 +1,412 @@
+//! `vps contact` and `vps haptics-bench` end to end: the JSON users script against, agreement
+//! with the library, bad input, the benchmark's figures and plot.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use glam::DVec3;
+use vps::generate::{voxelize, VoxelizeParams};
+use vps::haptics::{contact, CachedVoxmap, ContactParams, Pose};
+use vps::mesh::Mesh;
+use vps::shapes;
+use vps::storage::pointshell::{write_pointshell, PointshellFile};
+use vps::storage::write_voxmap;
+
+fn vps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(args)
+        .output()
+        .expect("run vps")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "vps failed: {}", stderr(o));
+    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A failure the way users should see it: exit code 1, a message naming `needle`, no panic.
+fn assert_clean_failure(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "stderr: {err}");
+    assert!(err.contains("error:"), "{err}");
+    assert!(err.contains(needle), "expected {needle:?} in: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(stdout(o).is_empty(), "{}", stdout(o));
+}
+
+struct Fixture {
+    dir: tempfile::TempDir,
+    vxm: PathBuf,
+    vps: PathBuf,
+}
+
+/// A ball of radius 10 at the origin (voxmap, 3 layers) and the pointshell of a ball of
+/// radius 3 (at most 16 points a leaf, so the tree has some depth), both at voxel size 0.5.
+fn fixture() -> Fixture {
+    let dir = tempfile::tempdir().unwrap();
+    let params = VoxelizeParams {
+        voxel_size: 0.5,
+        layers: 3,
+        ..Default::default()
+    };
+    let big = Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 10.0, 24, 48)).unwrap();
+    let (vm, _) = voxelize(&big, &params).unwrap();
+    let vxm = dir.path().join("ball.vxm");
+    write_voxmap(&vxm, &vm).unwrap();
+    let small = Mesh::from_triangles("probe", shapes::sphere(DVec3::ZERO, 3.0, 12, 24)).unwrap();
+    let (svm, _) = voxelize(&small, &params).unwrap();
+    let (shell, _) = vps::generate::pointshell::pointshell(&small, &svm, 16).unwrap();
+    let vps = dir.path().join("probe.vps");
+    write_pointshell(&vps, &shell, 16).unwrap();
+    Fixture { dir, vxm, vps }
+}
+
+/// Half in, half out of the ball's surface, slightly turned.
+const TOUCHING: &str = "11.2 0.3 -0.2 0.98 0.1 0.15 0.05";
+/// Far from the ball (and beyond its grid), with a negative coordinate first.
+const FAR: &str = "-40 0 0 1 0 0 0";
+
+fn vec3(v: &serde_json::Value) -> DVec3 {
+    let a: Vec<f64> = v
+        .as_array()
+        .unwrap_or_else(|| panic!("not an array: {v}"))
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(a.len(), 3, "{v}");
+    DVec3::new(a[0], a[1], a[2])
+}
+
+fn close(a: DVec3, b: DVec3) -> bool {
+    // JSON printing is exact; parsing may be off by an ulp.
+    (a - b).abs().max_element() <= 1e-12 * b.abs().max_element().max(1.0)
+}
+
+#[test]
+fn contact_json_has_the_fields_and_matches_the_library() {
+    let f = fixture();
+    let j = json(&vps(&[
+        "contact",
+        p(&f.vxm),
+        p(&f.vps),
+        "--pose",
+        TOUCHING,
+        "--stiffness",
+        "2.5",
+        "--json",
+    ]));
+    for key in [
+        "force",
+        "torque",
+        "points_in_contact",
+        "points_tested",
+        "max_penetration",
+        "micros",
+        "nodes_tested",
+        "nodes_culled",
+        "complete",
+        "force_error_bound",
+        "voxmap",
+        "pointshell",
+        "pose",
+        "stiffness",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key} in {j}");
+    }
+    assert_eq!(j["voxmap"], p(&f.vxm));
+    assert_eq!(j["pointshell"], p(&f.vps));
+    assert_eq!(j["complete"], true);
+    let force = vec3(&j["force"]);
+    let torque = vec3(&j["torque"]);
+    assert!(force.length() > 0.0, "{j}");
+    assert!(j["points_in_contact"].as_u64().unwrap() > 0);
+    assert!(j["max_penetration"].as_f64().unwrap() > 0.0);
+    // The ball pushes the probe out: along +x, roughly.
+    assert!(force.x > 0.0, "{force}");
+
+    let voxmap = CachedVoxmap::open(&f.vxm).unwrap();
+    let shell = PointshellFile::open(&f.vps).unwrap();
+    let pose = Pose::parse(TOUCHING).unwrap();
+    let lib = contact(
+        &voxmap,
+        &shell,
+        &pose,
+        &ContactParams {
+            stiffness: 2.5,
+            budget: None,
+        },
+    )
+    .unwrap();
+    assert!(close(force, lib.force), "{force} vs {}", lib.force);
+    assert!(close(torque, lib.torque), "{torque} vs {}", lib.torque);
+    assert_eq!(j["points_in_contact"].as_u64().unwrap(), lib.points_in_contact);
+    assert_eq!(j["points_tested"].as_u64().unwrap(), lib.points_tested);
+    assert_eq!(j["nodes_tested"].as_u64().unwrap(), lib.nodes_tested);
+    assert_eq!(j["max_penetration"].as_f64().unwrap(), lib.max_penetration);
+
+    // The human summary says the same.
+    let o = vps(&["contact", p(&f.vxm), p(&f.vps), "--pose", TOUCHING]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("force") && out.contains("torque"), "{out}");
+    assert!(out.contains(&format!(
+        "{} of {} points tested",
+        lib.points_in_contact, lib.points_tested
+    )));
+}
+
+#[test]
+fn no_contact_gives_exactly_zero() {
+    let f = fixture();
+    let j = json(&vps(&["contact", p(&f.vxm), p(&f.vps), "--pose", FAR, "--json"]));
+    assert_eq!(j["force"], serde_json::json!([0.0, 0.0, 0.0]));
+    assert_eq!(j["torque"], serde_json::json!([0.0, 0.0, 0.0]));
+    assert_eq!(j["points_in_contact"], 0);
+    assert_eq!(j["max_penetration"], 0.0);
+    // `--pose=` form and commas work too.
+    let j = json(&vps(&[
+        "contact",
+        p(&f.vxm),
+        p(&f.vps),
+        "--pose=-40,0,0,1,0,0,0",
+        "--json",
+    ]));
+    assert_eq!(j["points_in_contact"], 0);
+}
+
+#[test]
+fn brute_force_equals_the_sphere_tree() {
+    let f = fixture();
+    for pose in [TOUCHING, FAR, "5 1 0 0.7 0.7 0 0"] {
+        let a = json(&vps(&["contact", p(&f.vxm), p(&f.vps), "--pose", pose, "--json"]));
+        let b = json(&vps(&[
+            "contact",
+            p(&f.vxm),
+            p(&f.vps),
+            "--pose",
+            pose,
+            "--brute-force",
+            "--json",
+        ]));
+        for key in ["force", "torque", "points_in_contact", "max_penetration"] {
+            assert_eq!(a[key], b[key], "{key} at {pose}");
+        }
+        assert_eq!(b["method"], "brute_force");
+        // Brute force tests every point.
+        assert_eq!(b["points_tested"], b["pointshell_points"]);
+    }
+}
+
+#[test]
+fn budgeted_contact_reports_its_bound() {
+    let f = fixture();
+    // A budget of 0 µs: the root stands for every point.
+    let j = json(&vps(&[
+        "contact",
+        p(&f.vxm),
+        p(&f.vps),
+        "--pose",
+        TOUCHING,
+        "--budget-us",
+        "0",
+        "--json",
+    ]));
+    assert_eq!(j["complete"], false);
+    assert!(j["force_error_bound"].as_f64().unwrap() > 0.0);
+    assert!(j["nodes_approximated"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn bad_contact_input_fails_cleanly() {
+    let f = fixture();
+    let (vxm, ps) = (p(&f.vxm), p(&f.vps));
+    let missing = f.dir.path().join("missing.vxm");
+    let truncated = f.dir.path().join("truncated.vxm");
+    let bytes = std::fs::read(&f.vxm).unwrap();
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let garbage = f.dir.path().join("garbage.vps");
+    std::fs::write(&garbage, b"not a pointshell at all, just some bytes".repeat(10)).unwrap();
+    let ok = "0 0 0 1 0 0 0";
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec![vxm, ps, "--pose", "1 2 3"], "7 numbers"),
+        (vec![vxm, ps, "--pose", "1 2 3 1 0 0 x"], "qz"),
+        (vec![vxm, ps, "--pose", "1 2 3 0 0 0 0"], "quaternion"),
+        (vec![vxm, ps, "--pose", "nan 0 0 1 0 0 0"], "non-finite"),
+        (vec![vxm, ps, "--pose", ok, "--stiffness", "NaN"], "stiffness"),
+        (vec![vxm, ps, "--pose", ok, "--stiffness", "-1"], "stiffness"),
+        (vec![vxm, ps, "--pose", ok, "--stiffness", "inf"], "stiffness"),
+        (vec![p(&missing), ps, "--pose", ok], "missing.vxm"),
+        (vec![vxm, p(&missing), "--pose", ok], "missing.vxm"),
+        (vec![p(&truncated), ps, "--pose", ok], "truncated.vxm"),
+        (vec![vxm, p(&garbage), "--pose", ok], "garbage.vps"),
+        (vec![ps, vxm, "--pose", ok], "is a pointshell"),
+    ];
+    for (args, needle) in cases {
+        let mut a = vec!["contact"];
+        a.extend(args.iter().copied());
+        assert_clean_failure(&vps(&a), needle);
+    }
+}
+
+#[test]
+fn bench_sweep_json_and_plot() {
+    let f = fixture();
+    let png_path = f.dir.path().join("x.png");
+    let j = json(&vps(&[
+        "haptics-bench",
+        p(&f.vxm),
+        p(&f.vps),
+        "--sweep",
+        "--steps",
+        "120",
+        "--plot",
+        p(&png_path),
+        "--brute-force",
+        "--json",
+    ]));
+    for key in [
+        "p50_us",
+        "p99_us",
+        "max_us",
+        "points_per_ms",
+        "first_query_us",
+        "queries_in_contact",
+        "points_tested_per_query",
+        "latency_us",
+        "cache",
+        "voxmap",
+        "pointshell",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key} in {j}");
+    }
+    assert_eq!(j["queries"], 120);
+    let lat = &j["latency_us"];
+    let (p50, p99, max) = (
+        lat["p50"].as_f64().unwrap(),
+        lat["p99"].as_f64().unwrap(),
+        lat["max"].as_f64().unwrap(),
+    );
+    assert!(0.0 < p50 && p50 <= p99 && p99 <= max, "{lat}");
+    assert_eq!(j["p50_us"], lat["p50"]);
+    assert!(j["points_per_ms"].as_f64().unwrap() > 0.0);
+    // The sweep starts clear and ends in contact.
+    let hits = j["queries_in_contact"].as_u64().unwrap();
+    assert!((20..=100).contains(&hits), "{hits} of 120 in contact");
+    assert!(j["points_tested_per_query"]["max"].as_u64().unwrap() > 0);
+    assert_eq!(j["brute_force"]["mismatches"], 0);
+    assert_eq!(j["brute_force"]["figures"]["queries"], 120);
+
+    let bytes = std::fs::read(&png_path).unwrap();
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert!(info.width >= 640 && info.height >= 400);
+
+    // The table form, with the defaults (sweep without --sweep).
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--steps", "50"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    for needle in ["p50", "p99", "max", "points per ms", "in contact", "first (cold cache)"] {
+        assert!(out.contains(needle), "missing {needle:?} in {out}");
+    }
+}
+
+#[test]
+fn bench_replays_a_trajectory_file() {
+    let f = fixture();
+    let traj = f.dir.path().join("t.txt");
+    std::fs::write(
+        &traj,
+        format!("# a touch and a miss\n{TOUCHING}\n\n{}  # far\n", FAR.replace(' ', ",")),
+    )
+    .unwrap();
+    let j = json(&vps(&[
+        "haptics-bench",
+        p(&f.vxm),
+        p(&f.vps),
+        "--trajectory",
+        p(&traj),
+        "--repeat",
+        "3",
+        "--budget-us",
+        "100000",
+        "--json",
+    ]));
+    assert_eq!(j["poses"], 2);
+    assert_eq!(j["queries"], 6);
+    assert_eq!(j["queries_in_contact"], 3);
+
+    let bad = f.dir.path().join("bad.txt");
+    std::fs::write(&bad, format!("{TOUCHING}\n# fine\n1 2 3 1 0 zero 0\n{FAR}\n")).unwrap();
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--trajectory", p(&bad)]);
+    assert_clean_failure(&o, "line 3");
+    // Said once, not repeated down an error chain.
+    assert_eq!(stderr(&o).matches("pose field 5 (qy)").count(), 1, "{}", stderr(&o));
+    assert!(stderr(&o).contains("bad.txt"), "{}", stderr(&o));
+
+    let empty = f.dir.path().join("empty.txt");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--trajectory", p(&empty)]);
+    assert_clean_failure(&o, "no pose");
+
+    let missing = f.dir.path().join("missing.txt");
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--trajectory", p(&missing)]);
+    assert_clean_failure(&o, "missing.txt");
+
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--repeat", "0"]);
+    assert_clean_failure(&o, "repeat");
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--stiffness", "-2"]);
+    assert_clean_failure(&o, "stiffness");
+}
+
+#[test]
+fn bench_builtin_needs_no_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let j = json(&vps(&[
+        "haptics-bench",
+        "--builtin",
+        "--points",
+        "3000",
+        "--grid-voxels",
+        "2e5",
+        "--steps",
+        "40",
+        "--out-dir",
+        p(dir.path()),
+        "--json",
+    ]));
+    let b = &j["builtin"];
+    assert!(b["grid_voxels"].as_u64().unwrap() >= 200_000, "{b}");
+    let points = b["points"].as_u64().unwrap();
+    assert!((2000..=4000).contains(&points), "{points} points for 3000");
+    assert!(b["build_seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(j["queries"], 40);
+    assert!(j["queries_in_contact"].as_u64().unwrap() > 0);
+    // The files it made are ordinary files.
+    let vxm = dir.path().join("builtin_static.vxm");
+    assert!(
+        json(&vps(&["info", p(&vxm), "--json"]))["grid_voxels"]
+            .as_u64()
+            .unwrap()
+            >= 200_000
+    );
+    // Files and --builtin exclude each other; so do --trajectory and --sweep.
+    let o = vps(&["haptics-bench", "--builtin", p(&vxm), p(&vxm)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = vps(&["haptics-bench", p(&vxm), p(&vxm), "--sweep", "--trajectory", "t.txt"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = vps(&["haptics-bench", "--builtin", "--points", "1e12"]);
+    assert_clean_failure(&o, "--points");
+}

@@ -1,0 +1,447 @@
+//! The contact query: physics checks (direction, symmetry, monotonicity, torque sign, hollow
+//! shells, no contact), the culled walk against the brute-force reference on random poses,
+//! determinism across thread counts, and the error bound of the time-critical mode.
+
+use std::time::Duration;
+
+use glam::{DQuat, DVec3};
+use proptest::prelude::*;
+use vps::generate::pointshell::pointshell;
+use vps::generate::{voxelize, VoxelizeParams};
+use vps::haptics::{contact, contact_brute_force, CachedVoxmap, Contact, ContactParams, Pose};
+use vps::mesh::{Mesh, Triangle};
+use vps::pointshell::tree::LEAF_SIZE;
+use vps::shapes;
+use vps::storage::pointshell::{write_pointshell, PointshellFile};
+use vps::storage::write_voxmap;
+
+/// A voxmap and a pointshell, written to files and opened as a query would.
+struct Pair {
+    _dir: tempfile::TempDir,
+    voxmap: CachedVoxmap,
+    shell: PointshellFile,
+}
+
+fn voxmap_file(dir: &std::path::Path, tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> CachedVoxmap {
+    let mesh = Mesh::from_triangles("static", tris).unwrap();
+    let params = VoxelizeParams {
+        voxel_size,
+        layers,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(&mesh, &params).unwrap();
+    let path = dir.join("static.vxm");
+    write_voxmap(&path, &vm).unwrap();
+    CachedVoxmap::open(&path).unwrap()
+}
+
+fn shell_file(dir: &std::path::Path, tris: Vec<Triangle>, voxel_size: f64) -> PointshellFile {
+    let mesh = Mesh::from_triangles("moving", tris).unwrap();
+    let params = VoxelizeParams {
+        voxel_size,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(&mesh, &params).unwrap();
+    let (shell, _) = pointshell(&mesh, &vm, LEAF_SIZE).unwrap();
+    let path = dir.join("moving.vps");
+    write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+    PointshellFile::open(&path).unwrap()
+}
+
+fn pair(static_tris: Vec<Triangle>, s: f64, moving_tris: Vec<Triangle>, ps: f64) -> Pair {
+    let dir = tempfile::tempdir().unwrap();
+    let voxmap = voxmap_file(dir.path(), static_tris, s, 5);
+    let shell = shell_file(dir.path(), moving_tris, ps);
+    Pair {
+        _dir: dir,
+        voxmap,
+        shell,
+    }
+}
+
+/// A slab whose top face is z = 0 (normal +z), 20 × 20 wide, 3 thick; voxels of 0.2.
+/// The pointshell: a unit sphere about its frame's origin, or about `centre`.
+fn slab_and_ball(centre: DVec3) -> Pair {
+    pair(
+        shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0)),
+        0.2,
+        shapes::sphere(centre, 1.0, 24, 48),
+        0.08,
+    )
+}
+
+fn at(t: DVec3) -> Pose {
+    Pose {
+        translation: t,
+        rotation: DQuat::IDENTITY,
+    }
+}
+
+fn query(p: &Pair, pose: &Pose) -> Contact {
+    contact(&p.voxmap, &p.shell, pose, &ContactParams::default()).unwrap()
+}
+
+/// Sum of per-point force magnitudes is what rounding is relative to; `|F|` bounds it from below,
+/// so tolerances use the penetration-weighted count instead.
+fn scale(c: &Contact) -> f64 {
+    c.max_penetration * c.points_in_contact as f64 + 1e-300
+}
+
+#[test]
+fn a_ball_pressed_into_a_slab_is_pushed_straight_out_harder_the_deeper_it_goes() {
+    let p = slab_and_ball(DVec3::ZERO);
+    let mut last = 0.0;
+    for step in 1..=16 {
+        let depth = 0.05 * step as f64;
+        let c = query(&p, &at(DVec3::new(0.0, 0.0, 1.0 - depth)));
+        assert!(c.points_in_contact > 0, "depth {depth}: no contact");
+        assert!(
+            c.force.z > 0.0,
+            "depth {depth}: force {:?} does not push out (+z)",
+            c.force
+        );
+        let tangential = c.force.truncate().length();
+        assert!(
+            tangential <= 0.03 * c.force.z,
+            "depth {depth}: tangential {tangential} against normal {}",
+            c.force.z
+        );
+        assert!(c.force.z >= last, "depth {depth}: force {} fell from {last}", c.force.z);
+        // Centred contact: torque about the ball's centre is small against force × radius.
+        assert!(
+            c.torque.length() <= 0.03 * c.force.z,
+            "depth {depth}: torque {:?}",
+            c.torque
+        );
+        assert!(c.max_penetration > 0.0 && c.max_penetration <= depth + 0.2 * 1.8);
+        last = c.force.z;
+    }
+    // Linear spring per point: deeper means much more force, not a little.
+    let shallow = query(&p, &at(DVec3::new(0.0, 0.0, 0.9))).force.z;
+    let deep = query(&p, &at(DVec3::new(0.0, 0.0, 0.2))).force.z;
+    assert!(deep > 10.0 * shallow, "deep {deep} vs shallow {shallow}");
+}
+
+#[test]
+fn stiffness_scales_the_force_linearly() {
+    let p = slab_and_ball(DVec3::ZERO);
+    let pose = at(DVec3::new(0.3, -0.2, 0.6));
+    let one = query(&p, &pose);
+    let params = ContactParams {
+        stiffness: 250.0,
+        ..Default::default()
+    };
+    let k = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
+    assert!((k.force - one.force * 250.0).length() <= 1e-9 * k.force.length());
+    assert!((k.torque - one.torque * 250.0).length() <= 1e-9 * k.torque.length().max(1e-12));
+    assert_eq!(k.points_in_contact, one.points_in_contact);
+}
+
+#[test]
+fn off_centre_contact_gives_torque_of_the_right_sign() {
+    // The ball sits at x = +2 in its own frame, so pressing it down (force +z) at a lever arm
+    // of +x turns it about −y: τ = r × F = (2, 0, 0) × (0, 0, F) = (0, −2F, 0).
+    let p = slab_and_ball(DVec3::new(2.0, 0.0, 0.0));
+    let c = query(&p, &at(DVec3::new(0.0, 0.0, 0.7)));
+    assert!(c.force.z > 0.0);
+    assert!(c.torque.y < 0.0, "torque {:?}", c.torque);
+    let expected = -2.0 * c.force.z;
+    assert!(
+        (c.torque.y - expected).abs() <= 0.05 * expected.abs(),
+        "torque y {} against r × F = {expected}",
+        c.torque.y
+    );
+    assert!(c.torque.x.abs() <= 0.05 * expected.abs() && c.torque.z.abs() <= 0.05 * expected.abs());
+    // The same ball on the other side turns the other way.
+    let q = slab_and_ball(DVec3::new(-2.0, 0.0, 0.0));
+    assert!(query(&q, &at(DVec3::new(0.0, 0.0, 0.7))).torque.y > 0.0);
+}
+
+#[test]
+fn rotating_the_pose_rotates_the_lever_arm() {
+    // The ball at +x in its frame, turned 180° about z, presses at −x: torque flips sign.
+    let p = slab_and_ball(DVec3::new(2.0, 0.0, 0.0));
+    let straight = query(&p, &at(DVec3::new(0.0, 0.0, 0.7)));
+    let turned = query(
+        &p,
+        &Pose {
+            translation: DVec3::new(0.0, 0.0, 0.7),
+            rotation: DQuat::from_rotation_z(std::f64::consts::PI),
+        },
+    );
+    assert!(turned.force.z > 0.0);
+    assert!(turned.torque.y > 0.0 && straight.torque.y < 0.0);
+    assert!((turned.force.z - straight.force.z).abs() <= 0.05 * straight.force.z);
+}
+
+/// A thick dome open at the bottom: outer radius 4, inner 3.5, over z ≥ 0, closed by a ring
+/// at z = 0. Its cavity opens to the outside, so the cavity is outside, as in a cup or a hood.
+fn dome() -> Vec<Triangle> {
+    let (outer, inner, segments) = (4.0, 3.5, 96);
+    let mut tris = shapes::open_hemisphere(DVec3::ZERO, outer, 24, segments);
+    tris.extend(
+        shapes::open_hemisphere(DVec3::ZERO, inner, 24, segments)
+            .into_iter()
+            .map(|[a, b, c]| [a, c, b]),
+    );
+    let rim = |r: f64, j: u32| {
+        let a = std::f64::consts::TAU * j as f64 / segments as f64;
+        DVec3::new(r * a.cos(), r * a.sin(), 0.0)
+    };
+    for j in 0..segments {
+        let (a0, a1, b0, b1) = (rim(outer, j), rim(outer, j + 1), rim(inner, j), rim(inner, j + 1));
+        tris.push([a0, a1, b0]);
+        tris.push([b0, a1, b1]);
+    }
+    tris
+}
+
+#[test]
+fn a_ball_inside_a_hollow_shell_is_pushed_back_into_the_cavity() {
+    let p = pair(dome(), 0.1, shapes::sphere(DVec3::ZERO, 1.0, 24, 48), 0.08);
+    // Pressed up into the dome's ceiling (inner radius 3.5): pushed down.
+    let ceiling = query(&p, &at(DVec3::new(0.0, 0.0, 2.8)));
+    assert!(ceiling.force.z < 0.0, "force {:?}", ceiling.force);
+    assert!(ceiling.force.truncate().length() <= 0.05 * -ceiling.force.z);
+    // Pressed sideways into the wall at 45° up, towards +x: pushed back towards the centre.
+    let dir = DVec3::new(1.0, 0.0, 1.0).normalize();
+    let wall = query(&p, &at(dir * 2.8));
+    let along = wall.force.dot(dir);
+    assert!(along < 0.0, "force {:?}", wall.force);
+    assert!(
+        (wall.force - dir * along).length() <= 0.1 * -along,
+        "force {:?}",
+        wall.force
+    );
+    // Pressed on the outside of the dome from above: pushed up, away from it.
+    let roof = query(&p, &at(DVec3::new(0.0, 0.0, 4.8)));
+    assert!(roof.force.z > 0.0, "force {:?}", roof.force);
+    // In the middle of the cavity nothing touches.
+    let free = query(&p, &at(DVec3::new(0.0, 0.0, 1.0)));
+    assert_eq!(
+        (free.force, free.torque, free.points_in_contact),
+        (DVec3::ZERO, DVec3::ZERO, 0)
+    );
+}
+
+#[test]
+fn no_contact_is_exactly_zero_and_far_away_is_not_an_error() {
+    let p = slab_and_ball(DVec3::ZERO);
+    for t in [
+        DVec3::new(0.0, 0.0, 1.5),    // above the slab, within the grid
+        DVec3::new(0.0, 0.0, 50.0),   // above the grid
+        DVec3::new(1e6, -1e6, 1e9),   // far beyond it
+        DVec3::new(-1e30, 0.0, 0.0),  // absurdly far
+        DVec3::new(0.0, 0.0, -1e300), // below everything
+    ] {
+        let c = query(&p, &at(t));
+        assert_eq!(c.force, DVec3::ZERO, "at {t}");
+        assert_eq!(c.torque, DVec3::ZERO, "at {t}");
+        assert_eq!((c.points_in_contact, c.max_penetration), (0, 0.0), "at {t}");
+        assert!(c.complete);
+        assert!(c.nodes_culled >= 1, "at {t}: {c:?}");
+        if t.z.abs() >= 50.0 || t.x.abs() >= 1e6 {
+            // Beyond the grid, the root alone is tested, and culled.
+            assert_eq!((c.nodes_tested, c.points_tested), (1, 0), "at {t}: {c:?}");
+        }
+    }
+}
+
+#[test]
+fn bad_parameters_are_errors_not_panics() {
+    let p = slab_and_ball(DVec3::ZERO);
+    for k in [f64::NAN, -1.0, f64::INFINITY] {
+        let params = ContactParams {
+            stiffness: k,
+            ..Default::default()
+        };
+        assert!(contact(&p.voxmap, &p.shell, &Pose::IDENTITY, &params).is_err());
+    }
+    let bad = Pose {
+        translation: DVec3::new(f64::NAN, 0.0, 0.0),
+        rotation: DQuat::IDENTITY,
+    };
+    assert!(contact(&p.voxmap, &p.shell, &bad, &ContactParams::default()).is_err());
+    let zero = Pose {
+        translation: DVec3::ZERO,
+        rotation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+    };
+    assert!(contact(&p.voxmap, &p.shell, &zero, &ContactParams::default()).is_err());
+}
+
+/// An assembly voxmap (ball, torus, block, hollow box) and a torus pointshell: normals in every
+/// direction, thin and thick parts, a cavity.
+fn assembly_and_torus() -> Pair {
+    let mut tris = shapes::sphere(DVec3::new(-3.0, 0.0, 0.0), 1.5, 16, 32);
+    tris.extend(shapes::torus(DVec3::new(2.0, 0.0, 0.0), 1.5, 0.5, 32, 16));
+    tris.extend(shapes::cuboid(DVec3::new(-1.0, 2.0, -1.0), DVec3::new(1.0, 3.0, 2.0)));
+    tris.extend(shapes::hollow_box(
+        DVec3::new(-1.5, -4.5, -1.5),
+        DVec3::new(1.5, -1.5, 1.5),
+        0.3,
+    ));
+    pair(
+        tris,
+        0.1,
+        shapes::torus(DVec3::new(0.2, 0.0, 0.1), 0.8, 0.3, 32, 16),
+        0.06,
+    )
+}
+
+fn pose_strategy(lo: DVec3, hi: DVec3) -> impl Strategy<Value = Pose> {
+    (
+        (lo.x..hi.x, lo.y..hi.y, lo.z..hi.z),
+        (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64),
+    )
+        .prop_filter_map("a quaternion needs a length", |((x, y, z), (w, a, b, c))| {
+            Pose::new([x, y, z], [w, a, b, c]).ok()
+        })
+}
+
+fn assert_same(a: &Contact, b: &Contact, what: &str) {
+    assert_eq!(a.force, b.force, "{what}: force");
+    assert_eq!(a.torque, b.torque, "{what}: torque");
+    assert_eq!(a.points_in_contact, b.points_in_contact, "{what}: points in contact");
+    assert_eq!(a.max_penetration, b.max_penetration, "{what}: max penetration");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// Culling changes which points are looked at, never the answer: the same bits as testing
+    /// every point.
+    #[test]
+    fn culled_walk_equals_brute_force(pose in pose_strategy(DVec3::new(-5.5, -5.5, -3.0), DVec3::new(5.5, 4.5, 3.0))) {
+        let p = fixture();
+        let params = ContactParams { stiffness: 3.5, ..Default::default() };
+        let fast = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        let slow = contact_brute_force(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        assert_same(&fast, &slow, &format!("pose {}", pose.to_text()));
+        prop_assert_eq!(slow.points_tested, p.shell.points().len() as u64);
+        prop_assert!(fast.points_tested <= slow.points_tested);
+    }
+
+    /// Out of budget, the answer is within the bound it reports of the exact one.
+    #[test]
+    fn time_critical_answer_is_within_its_bound(
+        pose in pose_strategy(DVec3::new(-5.0, -5.0, -2.5), DVec3::new(5.0, 4.0, 2.5)),
+        budget_us in prop_oneof![Just(0u64), 1u64..40],
+    ) {
+        let p = fixture();
+        let exact = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
+        let params = ContactParams { budget: Some(Duration::from_micros(budget_us)), ..Default::default() };
+        let quick = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        let slack = 1e-9 * (1.0 + scale(&exact));
+        prop_assert!((quick.force - exact.force).length() <= quick.force_error_bound + slack,
+            "force {:?} vs exact {:?}, bound {}", quick.force, exact.force, quick.force_error_bound);
+        prop_assert!((quick.torque - exact.torque).length() <= quick.torque_error_bound + 10.0 * slack,
+            "torque {:?} vs exact {:?}, bound {}", quick.torque, exact.torque, quick.torque_error_bound);
+        prop_assert_eq!(quick.complete, quick.nodes_approximated == 0);
+        if budget_us == 0 {
+            prop_assert!(!quick.complete && quick.nodes_approximated >= 1);
+        }
+        prop_assert_eq!(
+            quick.points_tested + quick.points_approximated <= p.shell.points().len() as u64,
+            true
+        );
+    }
+}
+
+/// One assembly pair for all the property cases: building it is the slow part.
+fn fixture() -> &'static Pair {
+    static PAIR: std::sync::OnceLock<Pair> = std::sync::OnceLock::new();
+    PAIR.get_or_init(assembly_and_torus)
+}
+
+#[test]
+fn a_budget_that_suffices_gives_the_exact_answer() {
+    let p = fixture();
+    for t in [
+        DVec3::new(2.0, 0.0, 0.3),
+        DVec3::new(-3.0, 0.5, 1.0),
+        DVec3::new(0.0, -3.0, 1.4),
+    ] {
+        let pose = at(t);
+        let exact = query(p, &pose);
+        let params = ContactParams {
+            budget: Some(Duration::from_secs(60)),
+            ..Default::default()
+        };
+        let c = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        assert!(c.complete && c.nodes_approximated == 0);
+        assert_eq!(c.force_error_bound, 0.0);
+        assert_eq!(c.points_in_contact, exact.points_in_contact);
+        // Breadth-first order adds the same terms in another order.
+        assert!((c.force - exact.force).length() <= 1e-12 * scale(&exact) + 1e-300);
+        assert!(exact.points_in_contact > 0, "pose {t} should touch");
+    }
+}
+
+#[test]
+fn the_result_does_not_depend_on_the_number_of_threads() {
+    // A ball of ~50k points deep in the slab: enough for the parallel path.
+    let p = pair(
+        shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0)),
+        0.1,
+        shapes::sphere(DVec3::ZERO, 1.0, 32, 64),
+        0.015,
+    );
+    assert!(p.shell.points().len() > 30_000, "{} points", p.shell.points().len());
+    let poses = [
+        at(DVec3::new(0.0, 0.0, 0.0)),
+        Pose::new([0.31, -0.2, 0.4], [0.9, 0.1, -0.3, 0.2]).unwrap(),
+    ];
+    for pose in poses {
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap())
+        };
+        let one = run(1);
+        assert!(one.points_in_contact > 8192, "{one:?}");
+        for threads in [2, 3, 8] {
+            assert_same(&run(threads), &one, &format!("{threads} threads"));
+        }
+        assert_same(
+            &contact_brute_force(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap(),
+            &one,
+            "brute force",
+        );
+    }
+}
+
+#[test]
+fn culling_skips_most_of_a_big_shell_in_light_contact() {
+    let p = slab_and_ball(DVec3::ZERO);
+    let c = query(&p, &at(DVec3::new(0.0, 0.0, 0.9)));
+    let all = p.shell.points().len() as u64;
+    assert!(c.points_in_contact > 0 && c.nodes_culled > 0);
+    // The lower cap within reach of the outer layers is tested; the rest is culled.
+    assert!(c.points_tested * 3 < all, "tested {} of {all}", c.points_tested);
+}
+
+#[test]
+fn random_poses_touch_often_enough_to_test_something() {
+    // The property tests above sample this box; most of their poses must touch, or the
+    // equality they check would be the trivial 0 = 0.
+    let p = fixture();
+    let mut rng = shapes::SplitMix(7);
+    let (mut touching, n) = (0, 200);
+    for _ in 0..n {
+        let t = [rng.range(-5.5, 5.5), rng.range(-5.5, 4.5), rng.range(-3.0, 3.0)];
+        let q = [
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ];
+        let Ok(pose) = Pose::new(t, q) else { continue };
+        let fast = query(p, &pose);
+        assert_same(
+            &fast,
+            &contact_brute_force(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap(),
+            &pose.to_text(),
+        );
+        touching += (fast.points_in_contact > 0) as u32;
+    }
+    assert!(touching * 4 >= n, "only {touching} of {n} poses touch");
+}
