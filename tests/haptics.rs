@@ -445,3 +445,43 @@ fn random_poses_touch_often_enough_to_test_something() {
     }
     assert!(touching * 4 >= n, "only {touching} of {n} poses touch");
 }
+
+#[test]
+fn cursor_look_ups_agree_with_the_file() {
+    // Random walks that mix small steps (same or neighbouring bricks, as a leaf's points) with
+    // jumps (as node centres), through a cursor over a cache small enough to be emptied often:
+    // every value must equal the file's own.
+    let p = fixture();
+    let path = p.voxmap.file().path().to_path_buf();
+    let small = CachedVoxmap::with_capacity(vps::storage::VoxmapFile::open(&path).unwrap(), 64 * 512);
+    let file = small.file();
+    let dims = file.grid().dims;
+    let mut rng = shapes::SplitMix(11);
+    for cache in [&small, &p.voxmap] {
+        let mut cur = cache.cursor();
+        let mut at = [dims[0] as f64 / 2.0, dims[1] as f64 / 2.0, dims[2] as f64 / 2.0];
+        for step in 0..200_000u32 {
+            if step % 7 == 0 {
+                at = [0, 1, 2].map(|a| rng.range(-4.0, dims[a] as f64 + 4.0));
+            } else {
+                for c in &mut at {
+                    *c += rng.range(-3.0, 3.0);
+                }
+            }
+            let u = DVec3::from_array(at);
+            let expected = file
+                .grid()
+                .voxel_of(file.grid().origin + u * file.grid().voxel_size)
+                .map(|v| file.value(v).unwrap());
+            let got = cur.in_grid(u).map(|(value, _)| value);
+            // Exactly on the grid's far faces `voxel_of` and `in_grid` may round differently;
+            // nowhere else.
+            if expected != got {
+                let edge = (0..3).any(|a| (at[a] - dims[a] as f64).abs() < 1e-9 || at[a].abs() < 1e-9);
+                assert!(edge, "at {at:?}: file {expected:?}, cursor {got:?}");
+            }
+        }
+        cur.finish().unwrap();
+    }
+    assert!(small.stats().entries <= 64 * 16, "{:?}", small.stats());
+}

@@ -5,8 +5,8 @@
 //! decompressed bricks and the values of uniform tiles — in a sharded map, so a brick is
 //! decompressed once per session. A [`Cursor`], used by one thread for one run of nearby
 //! look-ups, keeps a small direct-mapped table of the bricks it has used, so most look-ups touch
-//! no lock and no shared cache line: with two threads on one map, a shared counter or lock
-//! touched per look-up costs more than the look-up itself (measured: 60–120 ns per point).
+//! no lock and no shared cache line (two threads touching one lock or counter per look-up make
+//! its cache line bounce between the cores).
 //!
 //! The cache holds at most a set number of bytes; a shard that fills up is emptied. Cursors
 //! hold their brick by `Arc`, so emptying a shard never invalidates a query in flight.
@@ -192,7 +192,7 @@ impl CachedVoxmap {
 /// The fast path, [`Cursor::in_grid`], returns no `Result`: when reading a brick fails, the
 /// cursor keeps the first error, answers far outside from then on, and the caller collects the
 /// error with [`Cursor::finish`] after its loop. This keeps the per-point loop free of error
-/// plumbing, which measured a fifth of its time.
+/// plumbing: with the floor and finiteness checks it replaced, 15% of the loop's time (measured).
 pub struct Cursor<'a> {
     voxmap: &'a CachedVoxmap,
     dims: [u32; 3],
@@ -203,6 +203,10 @@ pub struct Cursor<'a> {
     /// The brick of the last look-up and its entry in the table.
     last_brick: [u32; 3],
     last_at: usize,
+    /// The brick before it: a tree walk alternates between a node's centre and its points,
+    /// which usually lie in two bricks.
+    prev_brick: [u32; 3],
+    prev_at: usize,
     /// Bricks switched to, and those that went to the shared map.
     switches: u64,
     shared: u64,
@@ -250,6 +254,8 @@ impl<'a> Cursor<'a> {
             // Matches no brick, so the first look-up switches.
             last_brick: [u32::MAX; 3],
             last_at: 0,
+            prev_brick: [u32::MAX; 3],
+            prev_at: 0,
             switches: 0,
             shared: 0,
             error: None,
@@ -276,7 +282,12 @@ impl<'a> Cursor<'a> {
     fn voxel(&mut self, v: [u32; 3]) -> i8 {
         let b = v.map(|c| c >> BRICK_SHIFT);
         if b != self.last_brick {
-            self.switch_to(b);
+            if b == self.prev_brick {
+                std::mem::swap(&mut self.last_brick, &mut self.prev_brick);
+                std::mem::swap(&mut self.last_at, &mut self.prev_at);
+            } else {
+                self.switch_to(b);
+            }
         }
         let Some(table) = &self.table else {
             return self.outside;
@@ -314,6 +325,13 @@ impl<'a> Cursor<'a> {
                     self.error.get_or_insert(e);
                 }
             }
+        }
+        // The brick just left stays at hand, unless its table entry was just reused.
+        if at == self.last_at {
+            self.prev_brick = [u32::MAX; 3];
+        } else {
+            self.prev_brick = self.last_brick;
+            self.prev_at = self.last_at;
         }
         self.last_brick = b;
         self.last_at = at;

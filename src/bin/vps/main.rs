@@ -575,6 +575,50 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
         ts.depth,
         t.elapsed().as_secs_f64()
     );
+    demo_haptics(out_dir, &out, voxel_size)
+}
+
+/// The haptic part of the demo: a ball's pointshell touches, presses and slides on the assembly.
+fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
+    use vps::haptics::{contact, trajectory::contact_sweep, CachedVoxmap, ContactParams};
+    let ball = Mesh::from_triangles("probe ball", vps::shapes::sphere(DVec3::ZERO, 6.0, 24, 48))?;
+    let params = params(voxel_size, 5, Navigation::Auto)?;
+    let (bvm, _) = vps::generate::voxelize(&ball, &params)?;
+    let leaf = vps::pointshell::tree::LEAF_SIZE;
+    let (probe, _) = vps::generate::pointshell::pointshell(&ball, &bvm, leaf)?;
+    let probe_path = out_dir.join("demo_probe.vps");
+    write_pointshell(&probe_path, &probe, leaf)?;
+    let voxmap = CachedVoxmap::open(vxm)?;
+    let shell = PointshellFile::open(&probe_path)?;
+    let poses = contact_sweep(&voxmap, &shell, 500, None)?;
+    let params = ContactParams::default();
+    let mut micros = Vec::with_capacity(poses.len());
+    let (mut touching, mut strongest) = (0, None::<vps::haptics::Contact>);
+    for pose in &poses {
+        let c = contact(&voxmap, &shell, pose, &params)?;
+        micros.push(c.micros);
+        touching += (c.points_in_contact > 0) as usize;
+        if strongest.map_or(true, |s| c.force.length() > s.force.length()) {
+            strongest = Some(c);
+        }
+    }
+    micros.sort_by(f64::total_cmp);
+    let at = |q: f64| micros[((micros.len() - 1) as f64 * q).round() as usize];
+    println!(
+        "haptics: {} ({} points) touches, presses and slides on demo.vxm: {} queries, {touching} in contact, p50 {:.1} µs, p99 {:.1} µs",
+        probe_path.display(),
+        shell.points().len(),
+        poses.len(),
+        at(0.5),
+        at(0.99)
+    );
+    if let Some(c) = strongest {
+        let (f, t) = (c.force, c.torque);
+        println!(
+            "  strongest contact: force [{:.1}, {:.1}, {:.1}], torque [{:.1}, {:.1}, {:.1}], {} points in contact, max penetration {:.3}",
+            f.x, f.y, f.z, t.x, t.y, t.z, c.points_in_contact, c.max_penetration
+        );
+    }
     Ok(())
 }
 
