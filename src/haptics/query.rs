@@ -32,10 +32,13 @@ const BATCH: usize = 16;
 /// more than it saves.
 const PARALLEL_MIN_POINTS: u64 = 8192;
 
-/// The time-critical walk splits a tree level into chunks of this many nodes, and checks the
-/// clock every [`CLOCK_EVERY`] nodes.
-const LEVEL_CHUNK: usize = 256;
+/// The time-critical walk checks the clock every this many nodes.
 const CLOCK_EVERY: usize = 16;
+
+/// Share of a time budget the time-critical walk keeps in reserve. It runs on the calling
+/// thread: on two cores, waking the pool made the 99th percentile 2–3× the budget, on one
+/// thread 1.2–1.5×; with this reserve as well, 0.9–1.3× (`docs/PERFORMANCE.md`).
+const BUDGET_RESERVE: f64 = 0.2;
 
 /// Planning the time-critical walk: the time per node assumed before any is measured, and the
 /// least assumed after (a level of a few nodes measures mostly the clock).
@@ -422,7 +425,7 @@ impl<'a> Frame<'a> {
         Ok(())
     }
 
-    /// Breadth-first refinement until `deadline`.
+    /// Breadth-first refinement until `deadline`, on the calling thread.
     ///
     /// Each level is planned before it starts: refining a node costs about one node's time now
     /// and, if the budget then runs out, the approximation of its two children later; leaving it
@@ -480,20 +483,13 @@ impl<'a> Frame<'a> {
                 cur.finish()?;
                 Ok((part, Vec::new()))
             };
-            let chunked = |nodes: &[usize], f: &(dyn Fn(&[usize]) -> LevelPart + Sync)| {
-                if nodes.len() > 2 * LEVEL_CHUNK {
-                    nodes.par_chunks(LEVEL_CHUNK).map(f).collect::<Result<Vec<_>, _>>()
-                } else {
-                    f(nodes).map(|r| vec![r])
-                }
-            };
-            let refined = chunked(todo, &refine_chunk)?;
+            let refined = [refine_chunk(todo)?];
             if !todo.is_empty() {
                 spent += started.elapsed().as_secs_f64();
                 refined_nodes += todo.len();
                 cost = (spent / refined_nodes as f64).max(MIN_NODE_SECONDS);
             }
-            let approximated = chunked(rest, &approximate_chunk)?;
+            let approximated = [approximate_chunk(rest)?];
             let mut next_level = Vec::with_capacity(refined.iter().map(|p| p.1.len()).sum());
             for (part, next) in refined.into_iter().chain(approximated) {
                 acc.merge(&part);
@@ -524,7 +520,9 @@ pub fn contact(
             let blocks = frame.blocks(true, &mut acc)?;
             frame.sum_blocks(&blocks, &mut acc, |b, part| frame.walk(b, true, part))?;
         }
-        Some(budget) => frame.walk_budgeted(start + budget, &mut acc)?,
+        // Plan to finish early: the slack absorbs what planning cannot see (the clock, page
+        // faults, the last level's approximations).
+        Some(budget) => frame.walk_budgeted(start + budget.mul_f64(1.0 - BUDGET_RESERVE), &mut acc)?,
     }
     frame.scale(&mut acc);
     acc.complete = acc.nodes_approximated == 0;
