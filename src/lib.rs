@@ -6,10 +6,12 @@
 //! - [`grid`]: where voxels and bricks sit in the world;
 //! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
 //! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ files or built in code;
+//! - [`scene`]: scene files (`.toml`): several OBJ meshes placed by transforms, as one mesh (`docs/SCENE.md`);
 //! - [`generate`]: mesh → voxmap;
 //! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
 //! - [`haptics`]: the contact query, force and torque from the two mapped files;
 //! - [`render`]: pictures of slices;
+//! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
 #![cfg(target_endian = "little")]
 
@@ -22,6 +24,8 @@ pub mod mesh;
 pub mod pointshell;
 pub mod reference;
 pub mod render;
+pub mod scene;
 pub mod shapes;
 pub mod storage;
+pub mod synth;
 pub mod voxmap;

@@ -241,6 +241,21 @@ fn open_mesh_warns_that_it_leaks() {
     let o = vps(&["voxelize", p(&obj), "--voxel-size", "0.25", "-o", p(&out), "--json"]);
     let j = json(&o);
     assert_eq!(j["inner_voxels"], 0);
+    assert_eq!(j["open_objects"], 1);
+    assert!(stderr(&o).contains("not closed"), "{}", stderr(&o));
+    // The paper's scene fill says it differently: its flood fill leaks.
+    let o = vps(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "0.25",
+        "--fill",
+        "scene",
+        "-o",
+        p(&out),
+        "--json",
+    ]);
+    assert_eq!(json(&o)["inner_voxels"], 0);
     assert!(stderr(&o).contains("leaks"), "{}", stderr(&o));
 }
 

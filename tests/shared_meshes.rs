@@ -43,6 +43,8 @@ fn voxelize_shared(dir: &std::path::Path, name: &str, target: f64, layers: u8) -
     let params = VoxelizeParams {
         voxel_size: voxel_size_for(&mesh, target),
         layers,
+        // The dense reference below is the paper's scene fill.
+        fill: vps::generate::Fill::Scene,
         ..Default::default()
     };
     let (vm, _) = voxelize(&mesh, &params).unwrap();

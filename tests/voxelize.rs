@@ -6,11 +6,11 @@ use std::collections::BTreeSet;
 use glam::DVec3;
 use proptest::prelude::*;
 use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
-use vps::generate::{surface, voxelize, VoxelizeParams};
+use vps::generate::{surface, voxelize, Fill, VoxelizeParams};
 use vps::geometry::sat::SatTriangle;
 use vps::grid::Grid;
 use vps::mesh::{Mesh, Triangle};
-use vps::reference::dense::{dense_surface, dense_voxmap};
+use vps::reference::dense::{dense_objects_voxmap, dense_surface, dense_voxmap};
 use vps::shapes;
 use vps::voxmap::{inside_value, outside_value, Voxmap};
 
@@ -64,6 +64,7 @@ fn check_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
     let params = VoxelizeParams {
         voxel_size,
         layers,
+        fill: Fill::Scene,
         ..Default::default()
     };
     let (vm, report) = voxelize(mesh, &params).unwrap();
@@ -247,6 +248,7 @@ fn values_of_the_demo_are_sane() {
         &VoxelizeParams {
             voxel_size: 1.0,
             layers: 5,
+            fill: Fill::Scene,
             ..Default::default()
         },
     )
@@ -261,6 +263,20 @@ fn values_of_the_demo_are_sane() {
     assert_eq!(vm.value_at(DVec3::new(19.5 - 0.6, 85.0, 25.0)), -1);
     let g: Grid = *vm.grid();
     assert_eq!(g.origin.x % (8.0 * 1.0), 0.0);
+    // Under the objects fill (the default) the hollow shell's air is outside; the sphere is
+    // still solid.
+    let (objects, report) = voxelize(
+        &mesh,
+        &VoxelizeParams {
+            voxel_size: 1.0,
+            layers: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(objects.value_at(DVec3::new(92.5, 87.5, 27.5)) < 0);
+    assert_eq!(objects.value_at(DVec3::new(30.0, 30.0, 30.0)), inside_value(5));
+    assert!(report.open_objects >= 1, "the open sheet is open");
 }
 
 /// Big and small triangles crossing many chunk borders (a chunk is 64³ voxels): the chunked
@@ -307,4 +323,113 @@ fn chunked_surface_equals_dense_surface() {
     }
     assert_eq!(n, dense.iter().filter(|&&s| s).count() as u64);
     assert!(got.chunks > 20, "only {} chunks", got.chunks);
+}
+
+/// `--fill objects` against its dense reference, voxel for voxel (values and layers).
+fn check_objects_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
+    let params = VoxelizeParams {
+        voxel_size,
+        layers,
+        fill: Fill::Objects,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(mesh, &params).unwrap();
+    let grid = *vm.grid();
+    assert!(grid.voxel_count() < 30_000_000, "test grid too big: {:?}", grid.dims);
+    let objects: Vec<&[Triangle]> = mesh
+        .objects
+        .iter()
+        .map(|o| &mesh.triangles[o.triangles.clone()])
+        .collect();
+    let dense = dense_objects_voxmap(&grid, &objects, layers);
+    for z in 0..grid.dims[2] {
+        for y in 0..grid.dims[1] {
+            for x in 0..grid.dims[0] {
+                assert_eq!(vm.value([x, y, z]), dense.get([x, y, z]), "voxel {:?}", [x, y, z]);
+            }
+        }
+    }
+    vm
+}
+
+fn assembly(parts: Vec<(&str, Vec<Triangle>)>) -> Mesh {
+    let mut it = parts.into_iter();
+    let (name, tris) = it.next().unwrap();
+    let mut mesh = Mesh::from_triangles(name, tris).unwrap();
+    for (name, tris) in it {
+        mesh.push_object(name, tris).unwrap();
+    }
+    mesh
+}
+
+#[test]
+fn objects_fill_keeps_air_enclosed_by_a_hollow_body_outside() {
+    // A closed box inside a closed hollow shell (walls 0.5 thick): the scene fill makes the
+    // cavity inside; the objects fill keeps it outside, with the walls and the box solid.
+    let mesh = assembly(vec![
+        ("shell", shapes::hollow_box(DVec3::splat(-4.0), DVec3::splat(4.0), 0.5)),
+        ("box", shapes::cuboid(DVec3::splat(-1.0), DVec3::splat(1.0))),
+    ]);
+    let objects = check_objects_against_dense(&mesh, 0.25, 3);
+    let scene = check_against_dense(&mesh, 0.25, 3);
+    let at = |vm: &Voxmap, x: f64| vm.value_at(DVec3::new(x, 0.1, 0.1));
+    // The cavity, between the box and the shell's inner wall.
+    assert!(at(&scene, 2.4) > 0, "scene fill: cavity is inside");
+    assert!(at(&objects, 2.4) < 0, "objects fill: cavity is outside");
+    // Inside the box: solid either way; the wall, two voxels thick, is all surface.
+    for vm in [&scene, &objects] {
+        assert!(at(vm, 0.1) > 0);
+        assert_eq!(at(vm, 3.8), 0);
+        assert!(at(vm, 5.0) < 0);
+    }
+    // The cavity's air gets outer layers from both the box and the wall.
+    assert_eq!(at(&objects, 1.0 + 0.25 * 1.5), -1);
+}
+
+#[test]
+fn objects_fill_of_open_and_touching_parts_matches_the_dense_reference() {
+    // An open panel encloses nothing; intersecting closed parts unite; a ball inside a closed
+    // shell stays solid while the shell's air stays outside.
+    let mesh = assembly(vec![
+        ("panel", shapes::open_hemisphere(DVec3::new(0.0, 0.0, 1.0), 3.0, 8, 24)),
+        (
+            "block",
+            shapes::cuboid(DVec3::new(-2.0, -1.0, -1.0), DVec3::new(0.5, 1.0, 1.5)),
+        ),
+        ("ball", shapes::sphere(DVec3::new(0.3, 0.0, 0.2), 1.2, 12, 24)),
+        (
+            "shell",
+            shapes::hollow_box(DVec3::new(2.0, -2.0, -2.0), DVec3::new(6.0, 2.0, 2.0), 0.4),
+        ),
+        ("inner ball", shapes::sphere(DVec3::new(4.0, 0.0, 0.0), 0.8, 12, 24)),
+    ]);
+    let vm = check_objects_against_dense(&mesh, 0.2, 2);
+    assert!(vm.value_at(DVec3::new(4.0, 0.0, 0.0)) > 0);
+    assert!(vm.value_at(DVec3::new(3.0, 1.2, 1.2)) < 0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Random assemblies of closed and open parts, overlapping or not: the objects fill equals
+    /// the dense per-object fill.
+    #[test]
+    fn objects_fill_equals_dense_reference(
+        parts in proptest::collection::vec((0u8..4, -3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64, 0.6..2.0f64), 1..6),
+    ) {
+        let parts: Vec<(&str, Vec<Triangle>)> = parts
+            .into_iter()
+            .map(|(kind, x, y, z, r)| {
+                let c = DVec3::new(x, y, z);
+                let tris = match kind {
+                    0 => shapes::sphere(c, r, 8, 16),
+                    1 => shapes::cuboid(c - r, c + r),
+                    2 => shapes::hollow_box(c - 1.5 * r, c + 1.5 * r, 0.35),
+                    _ => shapes::open_hemisphere(c, r, 6, 12),
+                };
+                ("part", tris)
+            })
+            .collect();
+        check_objects_against_dense(&assembly(parts), 0.25, 2);
+    }
 }

@@ -5,6 +5,7 @@
 //! 3. [`crate::voxmap::layers`]: chessboard distance layers around the surface;
 //! 4. signed values per brick; uniform bricks become tiles.
 
+pub mod inside;
 pub mod navigate;
 pub mod pointshell;
 pub mod surface;
@@ -19,6 +20,7 @@ use crate::grid::{Grid, GridError};
 use crate::mesh::Mesh;
 use crate::voxmap::fill::Outside;
 use crate::voxmap::layers::distance_layers;
+use crate::voxmap::solid::{ObjectsInside, Solid};
 use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, MAX_LAYERS};
 
 /// Errors in generating a voxmap.
@@ -44,6 +46,22 @@ pub struct VoxelizeParams {
     pub layers: u8,
     /// How candidate voxels are chosen.
     pub navigation: Navigation,
+    /// Which voxels are inside.
+    pub fill: Fill,
+}
+
+/// Which voxels are inside (`docs/VOXMAP.md`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Fill {
+    /// The paper's: flood fill from the outside of the whole scene; whatever it does not reach
+    /// is inside, including air that objects enclose together (a car's cabin).
+    Scene,
+    /// Inside means inside at least one closed object (OBJ `o`/`g`), by the parity of its
+    /// surfaces crossed (see [`inside`]); open objects add only their surface. Air enclosed by a
+    /// hollow body stays outside, so a part can move inside it: the default, as CAD assemblies
+    /// need.
+    #[default]
+    Objects,
 }
 
 impl Default for VoxelizeParams {
@@ -52,6 +70,7 @@ impl Default for VoxelizeParams {
             voxel_size: 1.0,
             layers: 5,
             navigation: Navigation::Auto,
+            fill: Fill::Objects,
         }
     }
 }
@@ -75,6 +94,8 @@ pub struct VoxelizeReport {
     pub chunks: usize,
     /// True when nothing is enclosed: the fill reached every non-surface voxel.
     pub leaks: bool,
+    /// With [`Fill::Objects`], objects that are not closed, so add only their surface.
+    pub open_objects: usize,
     /// Time to find the surface.
     pub t_surface: Duration,
     /// Time of the flood fill.
@@ -110,31 +131,82 @@ pub fn voxelize_with(
 
     phase("surface");
     let t = Instant::now();
-    let surface = surface::mark_surface(&grid, &mesh.triangles, params.navigation);
+    let (surface, objects) = match params.fill {
+        Fill::Scene => (surface::mark_surface(&grid, &mesh.triangles, params.navigation), None),
+        Fill::Objects => {
+            let (surface, inside, open) = objects_surface(&grid, mesh, params.navigation);
+            report.open_objects = open;
+            (surface, Some(inside))
+        }
+    };
     report.t_surface = t.elapsed();
     report.nav = surface.stats;
     report.surface_voxels = surface.voxel_count();
     report.surface_bricks = surface.bricks.len();
     report.chunks = surface.chunks;
 
-    let voxmap = assemble(grid, params.layers, &surface.bricks, &mut report, phase);
+    phase("fill");
+    let t = Instant::now();
+    let solid = match objects {
+        None => Solid::Scene(Outside::flood(grid.brick_dims(), &surface.bricks)),
+        Some(inside) => Solid::Objects(inside),
+    };
+    report.t_fill = t.elapsed();
+    let voxmap = assemble(grid, params.layers, &surface.bricks, &solid, &mut report, phase);
     report.leaks = voxmap.counts().inner_voxels == 0;
     Ok((voxmap, report))
 }
 
-/// Fill, layer and assemble a voxmap from its surface bricks (sorted by key).
+/// The surface of each object on its own, the inside of each closed one, and their unions (the
+/// scene's surface, sorted by key, and [`ObjectsInside`]). Objects are done in parallel; the
+/// union of the surfaces is the scene's surface, so no triangle is tested twice.
+fn objects_surface(grid: &Grid, mesh: &Mesh, nav: Navigation) -> (surface::SurfaceBricks, ObjectsInside, usize) {
+    let per_object: Vec<(surface::SurfaceBricks, ObjectsInside, bool)> = mesh
+        .objects
+        .par_iter()
+        .map(|o| {
+            let tris = &mesh.triangles[o.triangles.clone()];
+            let s = surface::mark_surface(grid, tris, nav);
+            let mut inside = ObjectsInside::default();
+            let closed = inside::is_closed(tris);
+            if closed {
+                inside::add_closed_object(grid, tris, &mut inside);
+            }
+            (s, inside, closed)
+        })
+        .collect();
+    let open = per_object.iter().filter(|o| !o.2).count();
+    let mut stats = NavStats::default();
+    let mut chunks = 0;
+    let mut all: Vec<(u64, crate::voxmap::Mask512)> = Vec::new();
+    let mut inside = ObjectsInside::default();
+    for (s, i, _) in per_object {
+        stats += s.stats;
+        chunks += s.chunks;
+        all.extend(s.bricks);
+        inside.merge(i);
+    }
+    all.par_sort_unstable_by_key(|b| b.0);
+    let mut bricks: Vec<(u64, crate::voxmap::Mask512)> = Vec::with_capacity(all.len());
+    for (key, m) in all {
+        match bricks.last_mut() {
+            Some(last) if last.0 == key => last.1 = last.1.or(&m),
+            _ => bricks.push((key, m)),
+        }
+    }
+    (surface::SurfaceBricks { bricks, stats, chunks }, inside.finish(), open)
+}
+
+/// Layer and assemble a voxmap from its surface bricks (sorted by key) and its inside.
 pub fn assemble(
     grid: Grid,
     layers: u8,
     surface: &[(u64, crate::voxmap::Mask512)],
+    solid: &Solid,
     report: &mut VoxelizeReport,
     phase: PhaseHook,
 ) -> Voxmap {
     let nb = grid.brick_dims();
-    phase("fill");
-    let t = Instant::now();
-    let outside = Outside::flood(nb, surface);
-    report.t_fill = t.elapsed();
 
     phase("layers");
     let t = Instant::now();
@@ -149,10 +221,10 @@ pub fn assemble(
         .zip(near.depth.into_par_iter())
         .map(|(&key, depth)| {
             let outside_mask = match surface.binary_search_by_key(&key, |s| s.0) {
-                Ok(i) => Some(outside.reached_voxels(i)),
+                Ok(i) => Some(solid.outside_voxels(i, key, &surface[i].1)),
                 Err(_) => None,
             };
-            let brick_outside = outside_mask.is_none() && outside.empty_brick_is_outside(key);
+            let brick_outside = outside_mask.is_none() && solid.empty_brick_is_outside(key);
             let mut values: Box<BrickValues> = bytemuck::allocation::cast_box(depth);
             for (i, v) in values.iter_mut().enumerate() {
                 let d = *v;
@@ -183,7 +255,7 @@ pub fn assemble(
             _ => inside.push(KeyRange { start, end }),
         }
     };
-    for (start, end) in outside.enclosed_spans() {
+    for (start, end) in solid.enclosed_spans() {
         let mut at = start;
         let first = bricks.partition_point(|b| b.key < start);
         for b in bricks[first..].iter().take_while(|b| b.key < end) {

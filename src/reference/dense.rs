@@ -3,9 +3,11 @@
 
 use std::collections::VecDeque;
 
+use crate::generate::inside::{column_crossing, is_closed};
 use crate::generate::navigate::{touched_voxels, NavStats, Navigation};
 use crate::geometry::sat::SatTriangle;
 use crate::grid::Grid;
+use crate::mesh::Triangle;
 use crate::voxmap::{inside_value, outside_value};
 
 /// A dense grid of values, x fastest.
@@ -46,6 +48,51 @@ pub fn dense_surface(grid: &Grid, tris: &[SatTriangle]) -> Vec<bool> {
 /// voxels (6-connected) for the outside, breadth-first search over 26 neighbours from the
 /// surface for the chessboard distance.
 pub fn dense_voxmap(dims: [u32; 3], surface: &[bool], layers: u8) -> DenseGrid {
+    let outside = dense_outside(dims, surface);
+    dense_layers(dims, surface, &outside, layers)
+}
+
+/// The `--fill objects` reference: a voxel is inside when it is no surface voxel and its
+/// centre is inside some closed object, by the parity of that object's triangles crossed above
+/// it, every triangle tested against every voxel centre; then layered from all the surfaces.
+pub fn dense_objects_voxmap(grid: &Grid, objects: &[&[Triangle]], layers: u8) -> DenseGrid {
+    let dims = grid.dims;
+    let n: usize = dims.iter().map(|&d| d as usize).product();
+    let mut surface = vec![false; n];
+    let mut inside = vec![false; n];
+    for tris in objects {
+        let g: Vec<Triangle> = tris.iter().map(|t| t.map(|p| grid.to_grid_units(p))).collect();
+        let sat: Vec<SatTriangle> = g.iter().map(|t| SatTriangle::new(*t)).collect();
+        for (i, s) in dense_surface(grid, &sat).into_iter().enumerate() {
+            surface[i] |= s;
+        }
+        if !is_closed(tris) {
+            continue;
+        }
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let zs: Vec<f64> = g
+                    .iter()
+                    .filter_map(|t| column_crossing(t, x as f64 + 0.5, y as f64 + 0.5))
+                    .collect();
+                if zs.len() % 2 == 1 {
+                    continue;
+                }
+                for z in 0..dims[2] {
+                    let c = z as f64 + 0.5;
+                    if zs.iter().filter(|&&zc| zc > c).count() % 2 == 1 {
+                        inside[(z as usize * dims[1] as usize + y as usize) * dims[0] as usize + x as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+    let outside: Vec<bool> = (0..n).map(|i| !surface[i] && !inside[i]).collect();
+    dense_layers(dims, &surface, &outside, layers)
+}
+
+/// Flood fill from voxel (0, 0, 0) through non-surface voxels, 6-connected: the outside.
+pub fn dense_outside(dims: [u32; 3], surface: &[bool]) -> Vec<bool> {
     let n = surface.len();
     let (nx, ny, nz) = (dims[0] as i64, dims[1] as i64, dims[2] as i64);
     let idx = |x: i64, y: i64, z: i64| ((z * ny + y) * nx + x) as usize;
@@ -71,7 +118,19 @@ pub fn dense_voxmap(dims: [u32; 3], surface: &[bool], layers: u8) -> DenseGrid {
             }
         }
     }
+    outside
+}
 
+/// Values from a surface and an outside: chessboard distance to the surface (breadth-first over
+/// 26 neighbours), signed by the outside, capped at the far values.
+pub fn dense_layers(dims: [u32; 3], surface: &[bool], outside: &[bool], layers: u8) -> DenseGrid {
+    let n = surface.len();
+    let (nx, ny, nz) = (dims[0] as i64, dims[1] as i64, dims[2] as i64);
+    let idx = |x: i64, y: i64, z: i64| ((z * ny + y) * nx + x) as usize;
+    let coords = |i: usize| {
+        let i = i as i64;
+        (i % nx, (i / nx) % ny, i / (nx * ny))
+    };
     let far = layers as u32 + 1;
     let mut dist = vec![u32::MAX; n];
     let mut queue = VecDeque::new();

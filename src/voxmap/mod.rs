@@ -8,6 +8,7 @@
 pub mod fill;
 pub mod layers;
 pub mod mask;
+pub mod solid;
 
 use crate::grid::{split_voxel, Grid, BRICK_VOXELS};
 pub use mask::Mask512;

@@ -430,6 +430,7 @@ fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
         voxel_size: s,
         layers: BUILTIN_LAYERS,
         navigation: Navigation::Auto,
+        ..Default::default()
     };
     let t = Instant::now();
     let (vm, _) = voxelize_with(&big, &vparams, &|_| {})?;
@@ -456,6 +457,7 @@ fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
         voxel_size: v,
         layers: BUILTIN_LAYERS,
         navigation: Navigation::Auto,
+        ..Default::default()
     };
     let (svm, _) = voxelize_with(&small, &sparams, &|_| {})?;
     let leaf = vps::pointshell::tree::LEAF_SIZE;

@@ -1,6 +1,7 @@
 //! `vps`: the command line. Thin: parse, call the library, print.
 
 mod haptics;
+mod scene;
 
 use std::io::{BufRead, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use vps::generate::{voxelize_with, Navigation, VoxelizeParams, VoxelizeReport};
+use vps::generate::{voxelize_with, Fill, Navigation, VoxelizeParams, VoxelizeReport};
 use vps::mesh::Mesh;
 use vps::storage::pointshell::{write_ply, write_pointshell, PointshellFile, PS_MAGIC};
 use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
@@ -45,6 +46,12 @@ impl From<NavArg> for Navigation {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
+enum FillArg {
+    Objects,
+    Scene,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
 enum Axis {
     X,
     Y,
@@ -53,9 +60,9 @@ enum Axis {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Voxelize an OBJ mesh (.obj or .obj.zst) into a .vxm voxmap.
+    /// Voxelize an OBJ mesh (.obj or .obj.zst) or a scene of meshes (.toml, docs/SCENE.md) into a .vxm voxmap.
     Voxelize {
-        /// The mesh.
+        /// The mesh (.obj, .obj.zst) or scene file (.toml).
         mesh: PathBuf,
         /// Voxel edge length, in the mesh's units.
         #[arg(long)]
@@ -69,13 +76,18 @@ enum Command {
         /// How candidate voxels are chosen in each triangle's bounding box.
         #[arg(long, value_enum, default_value_t = NavArg::Auto)]
         navigation: NavArg,
+        /// Which voxels are inside: `objects` (inside a closed object; air a hollow body encloses
+        /// stays outside, as CAD assemblies need) or `scene` (the paper's flood fill from the
+        /// outside of the whole scene).
+        #[arg(long, value_enum, default_value_t = FillArg::Objects)]
+        fill: FillArg,
         /// Print the summary as one JSON object.
         #[arg(long)]
         json: bool,
     },
     /// Make the pointshell of a mesh (.vps): one point per surface voxel, inward normals, sphere tree.
     Pointshell {
-        /// The mesh.
+        /// The mesh (.obj, .obj.zst) or scene file (.toml).
         mesh: PathBuf,
         /// Voxel edge length, in the mesh's units.
         #[arg(long)]
@@ -175,6 +187,9 @@ enum Command {
     Contact(haptics::ContactArgs),
     /// Replay a trajectory (or a built-in sweep into contact) and print query latency and throughput.
     HapticsBench(haptics::BenchArgs),
+    /// Scenes for tests and benchmarks: `vps scene synth` writes a reproducible car-scale OBJ.
+    #[command(subcommand)]
+    Scene(scene::SceneCommand),
 }
 
 fn main() {
@@ -197,9 +212,14 @@ fn run(cli: Cli) -> Result<()> {
             layers,
             output,
             navigation,
+            fill,
             json,
         } => {
-            let params = params(voxel_size, layers, navigation.into())?;
+            let mut params = params(voxel_size, layers, navigation.into())?;
+            params.fill = match fill {
+                FillArg::Objects => Fill::Objects,
+                FillArg::Scene => Fill::Scene,
+            };
             let mesh = load_mesh(&mesh)?;
             let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &output)?;
             print_voxelize_summary(&output, &vm, &report, &write, secs, json);
@@ -262,6 +282,7 @@ fn run(cli: Cli) -> Result<()> {
         } => bench(mesh.as_deref(), &targets, &voxel_sizes, layers, &navigation, json),
         Command::Contact(args) => haptics::run_contact(args),
         Command::HapticsBench(args) => haptics::run_bench(args),
+        Command::Scene(command) => scene::run(command),
     }
 }
 
@@ -276,6 +297,7 @@ fn params(voxel_size: f64, layers: u32, navigation: Navigation) -> Result<Voxeli
         voxel_size,
         layers: layers as u8,
         navigation,
+        ..Default::default()
     })
 }
 
@@ -287,9 +309,15 @@ fn spinner(msg: &str) -> ProgressBar {
     pb
 }
 
+/// An OBJ mesh, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh.
 fn load_mesh(path: &Path) -> Result<Mesh> {
     let pb = spinner(&format!("reading {}", path.display()));
-    let mesh = Mesh::load_obj(path)?;
+    let mesh = if vps::scene::is_scene_path(path) {
+        let scene = vps::scene::Scene::load(path).context("loading the scene")?;
+        scene.to_mesh().context("loading the scene")?
+    } else {
+        Mesh::load_obj(path)?
+    };
     pb.finish_and_clear();
     if mesh.degenerate_skipped > 0 {
         eprintln!("note: skipped {} degenerate triangles", mesh.degenerate_skipped);
@@ -310,10 +338,24 @@ fn voxelize_to_file(
     let write = write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
     pb.finish_and_clear();
     if report.leaks {
+        match params.fill {
+            Fill::Scene => eprintln!(
+                "warning: the model leaks: the outside flood fill reached every non-surface voxel, so nothing is inside \
+                 (the mesh is not closed at voxel size {}); inner_voxels is 0",
+                params.voxel_size
+            ),
+            Fill::Objects => eprintln!(
+                "warning: nothing is inside: {} of {} objects are not closed (an edge not shared by two triangles), \
+                 and the closed ones enclose no voxel centre; try --fill scene",
+                report.open_objects,
+                mesh.objects.len()
+            ),
+        }
+    } else if params.fill == Fill::Objects && report.open_objects > 0 {
         eprintln!(
-            "warning: the model leaks: the outside flood fill reached every non-surface voxel, so nothing is inside \
-             (the mesh is not closed at voxel size {}); inner_voxels is 0",
-            params.voxel_size
+            "note: {} of {} objects are not closed and add only their surface (--fill objects)",
+            report.open_objects,
+            mesh.objects.len()
         );
     }
     Ok((vm, report, write, start.elapsed().as_secs_f64()))
@@ -338,6 +380,7 @@ fn print_voxelize_summary(output: &Path, vm: &Voxmap, r: &VoxelizeReport, w: &Wr
             "sat_tests": r.nav.sat_tests,
             "sat_tests_per_surface_voxel": sat_per_surface,
             "leaks": r.leaks,
+            "open_objects": r.open_objects,
             "file_bytes": w.file_bytes,
             "seconds": secs,
             "surface_seconds": r.t_surface.as_secs_f64(),
