@@ -35,8 +35,9 @@ use toml::Spanned;
 
 use crate::mesh::{Mesh, MeshError, Triangle};
 
-/// Most `[[mesh]]` entries a scene may hold. The TOML parser holds the whole document in
-/// memory, about 1.4 kB per entry: a scene at this limit takes about 1.4 GB to parse.
+/// Most `[[mesh]]` entries a scene may hold. Checked after the TOML parser has read the whole
+/// document, which takes about 6 kB of memory per entry with every field given: 0.6 GB and
+/// 3 s for 100,000 entries, 6 GB and about a minute at this limit (`docs/SCENE.md`).
 pub const MAX_ENTRIES: usize = 1_000_000;
 
 /// The fields of a `[[mesh]]` entry.
@@ -429,16 +430,40 @@ struct RawRotation {
 struct Source<'a> {
     text: &'a str,
     file: Option<&'a Path>,
+    /// Byte offset of the start of each line.
+    line_starts: Vec<usize>,
 }
 
-impl Source<'_> {
-    /// The location of a byte offset: line and column (in characters) from 1.
+impl<'a> Source<'a> {
+    fn new(text: &'a str, file: Option<&'a Path>) -> Self {
+        let line_starts = std::iter::once(0)
+            .chain(
+                text.bytes()
+                    .enumerate()
+                    .filter(|&(_, b)| b == b'\n')
+                    .map(|(i, _)| i + 1),
+            )
+            .collect();
+        Source {
+            text,
+            file,
+            line_starts,
+        }
+    }
+
+    /// The line of a byte offset, from 1: a binary search, as every entry asks for its line.
+    fn line_of(&self, offset: usize) -> usize {
+        self.line_starts.partition_point(|&s| s <= offset).max(1)
+    }
+
+    /// The location of a byte offset: line and column (in characters) from 1. The column
+    /// costs the length of the line, so it is worked out only for errors.
     fn at(&self, offset: usize) -> Location {
-        let bytes = &self.text.as_bytes()[..offset.min(self.text.len())];
-        let line_start = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-        let line = 1 + bytes.iter().filter(|&&b| b == b'\n').count();
+        let offset = offset.min(self.text.len());
+        let line = self.line_of(offset);
+        let bytes = &self.text.as_bytes()[self.line_starts[line - 1]..offset];
         // Characters, not bytes: count the bytes that start a UTF-8 sequence.
-        let column = 1 + bytes[line_start..].iter().filter(|&&b| (b & 0xC0) != 0x80).count();
+        let column = 1 + bytes.iter().filter(|&&b| (b & 0xC0) != 0x80).count();
         Location {
             file: self.file.map(Path::to_path_buf),
             line,
@@ -570,7 +595,7 @@ impl Scene {
     fn parse_in(text: &str, base_dir: &Path, file: Option<&Path>, max_entries: usize) -> Result<Scene, SceneError> {
         // A byte-order mark is not TOML; editors on Windows write one.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let src = Source { text, file };
+        let src = Source::new(text, file);
         let root = DeTable::parse(text).map_err(|e| SceneError::Syntax {
             at: src.at_span(e.span()),
             message: e.message().to_string(),
@@ -688,10 +713,11 @@ fn parse_entry(
     item: &Spanned<DeValue<'_>>,
     base_dir: &Path,
 ) -> Result<SceneEntry, SceneError> {
-    let here = src.at(item.span().start);
+    let start = item.span().start;
+    let here = || src.at(start);
     let DeValue::Table(table) = item.get_ref() else {
         return Err(SceneError::Invalid {
-            at: here,
+            at: here(),
             entry: Some(EntryRef { index, name: None }),
             message: format!(
                 "an entry must be a table of fields, not a {}",
@@ -708,7 +734,7 @@ fn parse_entry(
     let some_entry = Some(entry.clone());
     check_keys(src, table, &ENTRY_FIELDS, "", &some_entry)?;
     if str_field("path").is_some_and(str::is_empty) || table.get("path").is_none() {
-        return Err(SceneError::MissingPath { at: here, entry });
+        return Err(SceneError::MissingPath { at: here(), entry });
     }
     if let Some(rotation) = table.get("rotation") {
         check_rotation(src, rotation, &entry)?;
@@ -718,7 +744,7 @@ fn parse_entry(
     let raw = RawEntry::deserialize(ValueDeserializer::from(item.clone())).map_err(|e| SceneError::Invalid {
         at: match e.span() {
             Some(s) => src.at(s.start),
-            None => here.clone(),
+            None => here(),
         },
         entry: some_entry.clone(),
         message: e.message().to_string(),
@@ -733,7 +759,7 @@ fn parse_entry(
             (Some(v), Some(k)) => v.get_ref().get(k).or(Some(v)),
             (v, _) => v,
         };
-        v.map_or_else(|| here.clone(), |v| src.at(v.span().start))
+        v.map_or_else(here, |v| src.at(v.span().start))
     };
     let finite = |field: &str, values: &[f64]| -> Result<(), SceneError> {
         match values.iter().position(|v| !v.is_finite()) {
@@ -811,7 +837,7 @@ fn parse_entry(
             rotation,
             scale,
         },
-        line: here.line,
+        line: src.line_of(start),
     })
 }
 
@@ -1220,7 +1246,7 @@ rotation.euler_degrees = [10.0, 20.0, 30.0]
 
     #[test]
     fn too_many_entries() {
-        // With a small limit: a million entries take the TOML parser over a gigabyte.
+        // With a small limit: a million entries take the TOML parser gigabytes.
         let text = "[[mesh]]\npath = \"a.obj\"\n".repeat(4);
         let parse = |max| Scene::parse_in(&text, Path::new(""), None, max);
         assert_eq!(parse(4).unwrap().entries.len(), 4);

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use glam::DVec3;
-use vps::generate::{voxelize, VoxelizeParams};
+use vps::generate::{voxelize, Fill, VoxelizeParams};
 use vps::mesh::{Mesh, Triangle};
 use vps::shapes;
 use vps::storage::VoxmapFile;
@@ -130,21 +130,6 @@ fn by_hand(f: &Fixture) -> Mesh {
 #[test]
 fn voxelize_scene_matches_the_meshes_placed_by_hand() {
     let f = fixture();
-    let out = f.dir.path().join("out.vxm");
-    let o = vps(&[
-        "voxelize",
-        p(&f.scene),
-        "--voxel-size",
-        "0.5",
-        "--layers",
-        "3",
-        "-o",
-        p(&out),
-        "--json",
-    ]);
-    assert!(o.status.success(), "vps failed: {}", stderr(&o));
-    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-
     let mesh = by_hand(&f);
     let names: Vec<&str> = mesh.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(
@@ -157,24 +142,50 @@ fn voxelize_scene_matches_the_meshes_placed_by_hand() {
             "ball/sphere"
         ]
     );
-    assert_eq!(j["triangles"], mesh.triangles.len());
 
-    // The library reads the scene into the same mesh.
+    // The library reads the scene into the same mesh: the same objects, the same triangles
+    // (quarter turns are exact, by quaternion or by Euler angles, and so are the other steps).
     let from_scene = vps::scene::Scene::load(&f.scene).unwrap().to_mesh().unwrap();
     assert_eq!(from_scene.objects, mesh.objects);
-    // Quarter turns are exact (by quaternion or by Euler angles), so are the other steps here.
     assert_eq!(from_scene.triangles, mesh.triangles);
 
-    let params = VoxelizeParams {
-        voxel_size: 0.5,
-        layers: 3,
-        ..Default::default()
-    };
-    let (expected, _) = voxelize(&mesh, &params).unwrap();
-    let written = VoxmapFile::open(&out).unwrap().to_voxmap().unwrap();
-    // Not assert_eq: the Debug form of a voxmap is megabytes.
-    assert!(written == expected, "{:?} vs {:?}", written.counts(), expected.counts());
-    assert!(expected.counts().inner_voxels > 0);
+    // The command line writes the voxmap of that mesh, with either inside rule (per-object
+    // filling sees the scene's objects).
+    for (flag, fill) in [("objects", Fill::Objects), ("scene", Fill::Scene)] {
+        let out = f.dir.path().join(format!("out-{flag}.vxm"));
+        let o = vps(&[
+            "voxelize",
+            p(&f.scene),
+            "--voxel-size",
+            "0.5",
+            "--layers",
+            "3",
+            "--fill",
+            flag,
+            "-o",
+            p(&out),
+            "--json",
+        ]);
+        assert!(o.status.success(), "vps failed: {}", stderr(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["triangles"], mesh.triangles.len());
+        let params = VoxelizeParams {
+            voxel_size: 0.5,
+            layers: 3,
+            fill,
+            ..Default::default()
+        };
+        let (expected, _) = voxelize(&mesh, &params).unwrap();
+        let written = VoxmapFile::open(&out).unwrap().to_voxmap().unwrap();
+        // Not assert_eq: the Debug form of a voxmap is megabytes.
+        assert!(
+            written == expected,
+            "--fill {flag}: {:?} vs {:?}",
+            written.counts(),
+            expected.counts()
+        );
+        assert!(expected.counts().inner_voxels > 0);
+    }
 }
 
 #[test]
