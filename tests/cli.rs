@@ -1,52 +1,13 @@
 //! The `vps` binary end to end: the commands users script against, bad input, and memory on a
 //! grid of more than 10¹⁰ voxels.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::{json, p, stderr, stdout, vps, write_obj};
+
+use std::path::PathBuf;
 
 use glam::DVec3;
-use vps::mesh::Triangle;
 use vps::shapes;
-
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write_obj(path: &Path, objects: &[(&str, Vec<Triangle>)]) {
-    let mut s = String::new();
-    let mut n = 0;
-    for (name, tris) in objects {
-        s.push_str(&format!("o {name}\n"));
-        for t in tris {
-            for v in t {
-                s.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
-            }
-            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
-            n += 3;
-        }
-    }
-    std::fs::write(path, s).unwrap();
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "vps failed: {}", stderr(o));
-    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 struct Fixture {
     _dir: tempfile::TempDir,

@@ -1,8 +1,11 @@
 //! `vps contact` and `vps haptics-bench` end to end: the JSON users script against, agreement
 //! with the library, bad input, the benchmark's figures and plot.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::{json, p, stderr, stdout, vps};
+
+use std::path::PathBuf;
+use std::process::Output;
 
 use glam::DVec3;
 use vps::generate::{voxelize, VoxelizeParams};
@@ -11,30 +14,6 @@ use vps::mesh::Mesh;
 use vps::shapes;
 use vps::storage::pointshell::{write_pointshell, PointshellFile};
 use vps::storage::write_voxmap;
-
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "vps failed: {}", stderr(o));
-    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 /// A failure the way users should see it: exit code 1, a message naming `needle`, no panic.
 fn assert_clean_failure(o: &Output, needle: &str) {

@@ -2,9 +2,12 @@
 //! every byte, truncation, a corrupt tree behind valid checksums, atomic writes, the PLY export
 //! and the `vps pointshell` / `info` / `export` commands end to end.
 
+mod common;
+use common::{json, p, stderr, vps};
+
 use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use glam::{DVec3, Vec3};
 use vps::generate::pointshell::pointshell;
@@ -570,27 +573,6 @@ fn write_fuzz_seeds() {
 }
 
 // The command line.
-
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "vps failed: {}", stderr(o));
-    let out = String::from_utf8_lossy(&o.stdout);
-    serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {out}"))
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 fn write_obj(path: &Path, tris: &[Triangle]) {
     let mut s = String::from("o ball\n");

@@ -1,49 +1,19 @@
 //! Scene files end to end: `vps voxelize scene.toml` gives the voxmap of the same triangles
 //! placed by hand, and bad scenes fail with messages that name the entry or the file.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::{p, stderr, vps, write_obj};
+
+use std::path::PathBuf;
 
 use glam::DVec3;
 use vps::generate::{voxelize, Fill, VoxelizeParams};
-use vps::mesh::{Mesh, Triangle};
+use vps::mesh::Mesh;
 use vps::shapes;
 use vps::storage::VoxmapFile;
 
 /// A transform applied by hand, as the scene applies it.
 type Place = dyn Fn(DVec3) -> DVec3;
-
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-fn write_obj(path: &Path, objects: &[(&str, Vec<Triangle>)]) {
-    let mut s = String::new();
-    let mut n = 0;
-    for (name, tris) in objects {
-        s.push_str(&format!("o {name}\n"));
-        for t in tris {
-            for v in t {
-                // `{}` prints the shortest text that reads back to the same f64.
-                s.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
-            }
-            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
-            n += 3;
-        }
-    }
-    std::fs::write(path, s).unwrap();
-}
 
 /// A directory with `parts/block.obj` (two boxes: a plate and a peg on it), `parts/ball.obj`
 /// (a sphere) and `scene.toml` using the block twice and the ball once.

@@ -1,32 +1,10 @@
 //! `vps scene synth` end to end: reproducible files that `vps voxelize` accepts, and bad
 //! arguments that fail cleanly.
 
+mod common;
+use common::{json, p, stderr, stdout, vps};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "vps failed: {}", stderr(o));
-    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 fn files_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)

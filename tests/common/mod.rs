@@ -1,0 +1,55 @@
+//! What the end-to-end tests share: running the `vps` binary, reading its output, writing OBJ
+//! files. Each test binary uses part of it.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use vps::mesh::Triangle;
+
+/// Run the `vps` binary built for these tests.
+pub fn vps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vps"))
+        .args(args)
+        .output()
+        .expect("run vps")
+}
+
+/// Standard output as text.
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Standard error as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The JSON object a successful `--json` run printed.
+pub fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "vps failed: {}", stderr(o));
+    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
+}
+
+/// A path as an argument.
+pub fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// Write named objects as an OBJ file, three vertices per triangle. `{}` prints the shortest
+/// text that reads back to the same `f64`.
+pub fn write_obj(path: &Path, objects: &[(&str, Vec<Triangle>)]) {
+    let mut s = String::new();
+    let mut n = 0;
+    for (name, tris) in objects {
+        s.push_str(&format!("o {name}\n"));
+        for t in tris {
+            for v in t {
+                s.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
+            }
+            s.push_str(&format!("f {} {} {}\n", n + 1, n + 2, n + 3));
+            n += 3;
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
