@@ -50,9 +50,6 @@ const MIN_NODE_SECONDS: f64 = 10e-9;
 const CULL_RELATIVE_MARGIN: f64 = 1e-5;
 const CULL_ABSOLUTE_MARGIN: f64 = 1e-6;
 
-/// What the time-critical walk makes of a chunk of a level: its sums and the next level's nodes.
-type LevelPart = Result<(Contact, Vec<usize>), StorageError>;
-
 /// What one look-up proves of a sphere.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Class {
@@ -435,8 +432,11 @@ impl<'a> Frame<'a> {
     /// estimate was low.
     fn walk_budgeted(&self, deadline: Instant, acc: &mut Contact) -> Result<(), StorageError> {
         let mut level: Vec<usize> = if self.nodes.is_empty() { vec![] } else { vec![0] };
+        let mut next = Vec::new();
+        let mut cur = self.voxmap.cursor();
         // Seconds per node, including a leaf's points: the mean over the levels refined so far,
-        // which spreads the fixed cost of a level (waking threads) over its nodes.
+        // which spreads the fixed cost of a level (the clock, the first brick look-ups) over its
+        // nodes.
         let mut cost = INITIAL_NODE_SECONDS;
         let (mut spent, mut refined_nodes) = (0.0f64, 0usize);
         while !level.is_empty() {
@@ -449,55 +449,36 @@ impl<'a> Frame<'a> {
                 ((left / cost - l) / 2.0).max(0.0) as usize
             };
             let (todo, rest) = level.split_at(refine.min(level.len()));
-            let refine_chunk = |nodes: &[usize]| -> LevelPart {
-                let mut part = Contact::default();
-                let mut next = Vec::new();
-                let mut cur = self.voxmap.cursor();
-                for (at, &i) in nodes.iter().enumerate() {
-                    if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
-                        for &j in &nodes[at..] {
-                            self.approximate(&mut cur, &self.nodes[j], &mut part)?;
-                        }
-                        break;
+            for (at, &i) in todo.iter().enumerate() {
+                if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
+                    for &j in &todo[at..] {
+                        self.approximate(&mut cur, &self.nodes[j], acc)?;
                     }
-                    let node = &self.nodes[i];
-                    part.nodes_tested += 1;
-                    if self.is_outside(&mut cur, node)? {
-                        part.nodes_culled += 1;
-                        continue;
-                    }
-                    match node.children() {
-                        Some([a, b]) => next.extend([a, b]),
-                        None => self.test_points(&mut cur, node.points(), &mut part),
-                    }
+                    break;
                 }
-                cur.finish()?;
-                Ok((part, next))
-            };
-            let approximate_chunk = |nodes: &[usize]| -> LevelPart {
-                let mut part = Contact::default();
-                let mut cur = self.voxmap.cursor();
-                for &j in nodes {
-                    self.approximate(&mut cur, &self.nodes[j], &mut part)?;
+                let node = &self.nodes[i];
+                acc.nodes_tested += 1;
+                if self.is_outside(&mut cur, node)? {
+                    acc.nodes_culled += 1;
+                    continue;
                 }
-                cur.finish()?;
-                Ok((part, Vec::new()))
-            };
-            let refined = [refine_chunk(todo)?];
+                match node.children() {
+                    Some([a, b]) => next.extend([a, b]),
+                    None => self.test_points(&mut cur, node.points(), acc),
+                }
+            }
             if !todo.is_empty() {
                 spent += started.elapsed().as_secs_f64();
                 refined_nodes += todo.len();
                 cost = (spent / refined_nodes as f64).max(MIN_NODE_SECONDS);
             }
-            let approximated = [approximate_chunk(rest)?];
-            let mut next_level = Vec::with_capacity(refined.iter().map(|p| p.1.len()).sum());
-            for (part, next) in refined.into_iter().chain(approximated) {
-                acc.merge(&part);
-                next_level.extend(next);
+            for &j in rest {
+                self.approximate(&mut cur, &self.nodes[j], acc)?;
             }
-            level = next_level;
+            std::mem::swap(&mut level, &mut next);
+            next.clear();
         }
-        Ok(())
+        cur.finish()
     }
 }
 
