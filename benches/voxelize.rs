@@ -120,5 +120,59 @@ fn pipeline(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, navigation, fill_and_layers, sparse_vs_dense, pipeline);
+/// The same synthetic car written to a file in memory and out of core (one slab and thin
+/// slabs), both fills: the cost of bounded memory, as ratios in one run.
+fn out_of_core(c: &mut Criterion) {
+    use vps::generate::out_of_core::{voxelize_bounded, Bounded};
+    use vps::generate::Fill;
+    let mesh = vps::synth::synth_car(&vps::synth::SynthParams {
+        triangles: 200_000,
+        seed: 1,
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench.vxm");
+    let mut g = c.benchmark_group("out_of_core");
+    g.sample_size(10);
+    for fill in [Fill::Objects, Fill::Scene] {
+        let params = VoxelizeParams {
+            voxel_size: 4.0,
+            layers: 5,
+            fill,
+            ..Default::default()
+        };
+        g.bench_function(format!("{fill:?}/in_memory"), |b| {
+            b.iter(|| {
+                let (vm, _) = voxelize(&mesh, &params).unwrap();
+                black_box(vps::storage::write_voxmap(&out, &vm).unwrap())
+            })
+        });
+        for planes in [None, Some(4)] {
+            let opts = Bounded {
+                memory_limit: 4 << 30,
+                spill_dir: None,
+                cancel: None,
+                progress: &|_, _, _| {},
+                max_slab_planes: planes,
+            };
+            let name = match planes {
+                None => "bounded".to_string(),
+                Some(n) => format!("bounded_slabs_of_{n}"),
+            };
+            g.bench_function(format!("{fill:?}/{name}"), |b| {
+                b.iter(|| black_box(voxelize_bounded(&mesh, &params, &out, &opts).unwrap()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    navigation,
+    fill_and_layers,
+    sparse_vs_dense,
+    pipeline,
+    out_of_core
+);
 criterion_main!(benches);

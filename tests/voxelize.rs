@@ -1,7 +1,11 @@
 //! Generation against the slow references: navigation against the whole bounding box, the
 //! sparse fill and layers against a dense grid, and shapes against their analytic inside.
 
+mod common;
+
 use std::collections::BTreeSet;
+
+use common::{assembly, random_part};
 
 use glam::DVec3;
 use proptest::prelude::*;
@@ -352,16 +356,6 @@ fn check_objects_against_dense(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxm
     vm
 }
 
-fn assembly(parts: Vec<(&str, Vec<Triangle>)>) -> Mesh {
-    let mut it = parts.into_iter();
-    let (name, tris) = it.next().unwrap();
-    let mut mesh = Mesh::from_triangles(name, tris).unwrap();
-    for (name, tris) in it {
-        mesh.push_object(name, tris).unwrap();
-    }
-    mesh
-}
-
 #[test]
 fn objects_fill_keeps_air_enclosed_by_a_hollow_body_outside() {
     // A closed box inside a closed hollow shell (walls 0.5 thick): the scene fill makes the
@@ -419,17 +413,34 @@ proptest! {
     ) {
         let parts: Vec<(&str, Vec<Triangle>)> = parts
             .into_iter()
-            .map(|(kind, x, y, z, r)| {
-                let c = DVec3::new(x, y, z);
-                let tris = match kind {
-                    0 => shapes::sphere(c, r, 8, 16),
-                    1 => shapes::cuboid(c - r, c + r),
-                    2 => shapes::hollow_box(c - 1.5 * r, c + 1.5 * r, 0.35),
-                    _ => shapes::open_hemisphere(c, r, 6, 12),
-                };
-                ("part", tris)
-            })
+            .map(|(kind, x, y, z, r)| ("part", random_part(kind, DVec3::new(x, y, z), r)))
             .collect();
         check_objects_against_dense(&assembly(parts), 0.25, 2);
+    }
+}
+
+/// A sphere whose vertices fall exactly on voxel column centres (x = −3.75 at voxel size 0.1):
+/// the column lines are nudged off the centres, so a triangle starting between a centre and
+/// its nudged line must still be counted, or the column loses its inside (a bug this caught:
+/// inside and outside voxels side by side with no surface between, which broke the haptic
+/// query's culling proofs). Checked against the dense reference and for that adjacency.
+#[test]
+fn objects_fill_with_vertices_on_column_centres() {
+    let mut tris = shapes::sphere(DVec3::new(-3.0, 0.0, 0.0), 1.5, 16, 32);
+    tris.extend(shapes::torus(DVec3::new(2.0, 0.0, 0.0), 1.5, 0.5, 32, 16));
+    tris.extend(shapes::hollow_box(
+        DVec3::new(-1.5, -4.5, -1.5),
+        DVec3::new(1.5, -1.5, 1.5),
+        0.3,
+    ));
+    let vm = check_objects_against_dense(&Mesh::from_triangles("one object", tris).unwrap(), 0.1, 5);
+    let d = vm.grid().dims;
+    for z in 0..d[2] {
+        for y in 0..d[1] {
+            for x in 1..d[0] {
+                let (a, b) = (vm.value([x - 1, y, z]), vm.value([x, y, z]));
+                assert!(a.signum() * b.signum() >= 0, "{a} beside {b} at {:?}", [x, y, z]);
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! so the cabin is outside while the wall between the skins is inside. Only closed objects (every
 //! edge shared by an even number of triangles) have an inside.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::{DVec2, DVec3};
 
@@ -27,7 +27,8 @@ pub fn is_closed(tris: &[Triangle]) -> bool {
     let (lo, hi) = crate::mesh::bounds_of(tris);
     let q = ((hi - lo).max_element() * 1e-9).max(f64::MIN_POSITIVE);
     let weld = |p: DVec3| ((p - lo) / q).round().as_i64vec3().to_array();
-    let mut edges: HashMap<[[i64; 3]; 2], u32> = HashMap::with_capacity(tris.len() * 3 / 2);
+    let mut edges: FxHashMap<[[i64; 3]; 2], u32> = FxHashMap::default();
+    edges.reserve(tris.len() * 3 / 2);
     for t in tris {
         for k in 0..3 {
             let (a, b) = (weld(t[k]), weld(t[(k + 1) % 3]));
@@ -59,6 +60,19 @@ pub fn column_crossing(t: &Triangle, x: f64, y: f64) -> Option<f64> {
 
 /// Add the inside of the closed object `tris` (world units) to `out`.
 pub fn add_closed_object(grid: &Grid, tris: &[Triangle], out: &mut ObjectsInside) {
+    add_closed_object_columns(grid, tris, 0..grid.dims[0], out);
+}
+
+/// Add the inside of the closed object `tris` (world units) to `out`, in the voxel columns
+/// whose x lies in `x_columns` only; that range must start and end on brick boundaries (or
+/// the grid's end), so that whole brick columns are done. Columns are independent, so a slab
+/// of the grid can be done on its own.
+pub fn add_closed_object_columns(
+    grid: &Grid,
+    tris: &[Triangle],
+    x_columns: std::ops::Range<u32>,
+    out: &mut ObjectsInside,
+) {
     let dims = grid.dims;
     let nb = grid.brick_dims();
     // (brick column, voxel column within it, z) of every crossing.
@@ -67,17 +81,22 @@ pub fn add_closed_object(grid: &Grid, tris: &[Triangle], out: &mut ObjectsInside
         let g = t.map(|p| grid.to_grid_units(p));
         let lo = g[0].min(g[1]).min(g[2]);
         let hi = g[0].max(g[1]).max(g[2]);
-        // Columns whose centre (i + 0.5, j + 0.5) lies in the triangle's box.
-        let range = |l: f64, h: f64, n: u32| {
-            let first = (l - 0.5).ceil().max(0.0);
-            let last = (h - 0.5).floor().min(n as f64 - 1.0);
+        // Columns whose line, the centre (i + 0.5, j + 0.5) moved by the nudge, may meet the
+        // triangle's box: rounded outwards, as `column_crossing` decides exactly. Rounding
+        // the centre itself would miss a triangle whose box starts between the centre and the
+        // nudged line (a vertex on a column centre), and a column missing one crossing of
+        // its pair loses its inside.
+        let range = |l: f64, h: f64, nudge: f64, n: u32| {
+            let first = (l - 0.5 - nudge).floor().max(0.0);
+            let last = (h - 0.5 - nudge).ceil().min(n as f64 - 1.0);
             (first as u32)..(last as i64 + 1).max(first as i64) as u32
         };
         if !(lo.is_finite() && hi.is_finite()) {
             continue;
         }
-        for i in range(lo.x, hi.x, dims[0]) {
-            for j in range(lo.y, hi.y, dims[1]) {
+        let xs = range(lo.x, hi.x, NUDGE.x, dims[0]);
+        for i in xs.start.max(x_columns.start)..xs.end.min(x_columns.end) {
+            for j in range(lo.y, hi.y, NUDGE.y, dims[1]) {
                 if let Some(z) = column_crossing(&g, i as f64 + 0.5, j as f64 + 0.5) {
                     let bc = (i >> BRICK_SHIFT) as u64 * nb[1] as u64 + (j >> BRICK_SHIFT) as u64;
                     crossings.push((bc, ((j & 7) << 3 | (i & 7)) as u8, z));
@@ -99,7 +118,7 @@ pub fn add_closed_object(grid: &Grid, tris: &[Triangle], out: &mut ObjectsInside
             let zs = &crossings[c..stop];
             // An odd count means the line grazed the mesh where it is not closed after all:
             // leave that column without inside rather than guess.
-            if zs.len() % 2 == 0 {
+            if zs.len().is_multiple_of(2) {
                 for pair in zs.chunks(2) {
                     // Voxel k is inside when its centre k + 0.5 lies strictly between the two.
                     let k0 = ((pair[0].2 - 0.5).floor() + 1.0).max(0.0);

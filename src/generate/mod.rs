@@ -7,6 +7,7 @@
 
 pub mod inside;
 pub mod navigate;
+pub mod out_of_core;
 pub mod pointshell;
 pub mod surface;
 
@@ -35,6 +36,22 @@ pub enum GenerateError {
     /// Too many layers.
     #[error("layers must be at most {MAX_LAYERS}, got {0}")]
     TooManyLayers(u32),
+    /// Reading or writing the output or spill files failed.
+    #[error(transparent)]
+    Storage(#[from] crate::storage::StorageError),
+    /// The run was stopped by its caller (Ctrl-C).
+    #[error("cancelled")]
+    Cancelled,
+    /// The memory limit is too small for this mesh and grid.
+    #[error("memory limit too small: {what} need about {} MiB, the limit leaves {} MiB", need >> 20, limit >> 20)]
+    MemoryLimit {
+        /// Bytes available for it.
+        limit: u64,
+        /// Bytes it needs.
+        need: u64,
+        /// What needs them.
+        what: String,
+    },
 }
 
 /// What to generate.
@@ -212,16 +229,30 @@ pub fn assemble(
     let t = Instant::now();
     let near = distance_layers(nb, surface, layers);
     report.layer_bricks = near.keys.len();
-    let (inn, out) = (inside_value(layers), outside_value(layers));
+    let bricks = signed_bricks(layers, near.keys.into_iter().zip(near.depth).collect(), surface, solid);
+    let mut runs = RunList::default();
+    for (start, end) in solid.enclosed_spans() {
+        add_inside_span(start, end, &bricks, |s, e| runs.push(s, e));
+    }
+    report.t_layers = t.elapsed();
+    Voxmap::from_parts(grid, layers, bricks, runs.runs)
+}
 
-    // Signed values; a brick whose values are all the far value is a tile, not stored.
+/// Signed values of the bricks near the surface: `near` holds (key, capped distance to the
+/// surface) in key order; `surface` the surface masks by key; `solid` says which side each
+/// voxel is on. A brick whose values are all the far value is a tile, not stored.
+pub(crate) fn signed_bricks(
+    layers: u8,
+    near: Vec<(u64, Box<[u8; crate::grid::BRICK_VOXELS]>)>,
+    surface: &[(u64, crate::voxmap::Mask512)],
+    solid: &Solid,
+) -> Vec<Brick> {
+    let (inn, out) = (inside_value(layers), outside_value(layers));
     let signed: Vec<Option<Brick>> = near
-        .keys
-        .par_iter()
-        .zip(near.depth.into_par_iter())
-        .map(|(&key, depth)| {
+        .into_par_iter()
+        .map(|(key, depth)| {
             let outside_mask = match surface.binary_search_by_key(&key, |s| s.0) {
-                Ok(i) => Some(solid.outside_voxels(i, key, &surface[i].1)),
+                Ok(i) => Some(solid.outside_voxels(key, &surface[i].1)),
                 Err(_) => None,
             };
             let brick_outside = outside_mask.is_none() && solid.empty_brick_is_outside(key);
@@ -242,28 +273,38 @@ pub fn assemble(
             }
         })
         .collect();
-    let bricks: Vec<Brick> = signed.into_iter().flatten().collect();
+    signed.into_iter().flatten().collect()
+}
 
-    // Inside tiles: enclosed gaps of the fill, less the bricks stored inside them.
-    let mut inside: Vec<KeyRange> = Vec::new();
-    let mut push = |start: u64, end: u64| {
+/// Inside tiles from one enclosed span `[start, end)` of brick keys, less the stored `bricks`
+/// (sorted) inside it, passed to `push` in key order.
+pub(crate) fn add_inside_span(start: u64, end: u64, bricks: &[Brick], mut push: impl FnMut(u64, u64)) {
+    let mut at = start;
+    let first = bricks.partition_point(|b| b.key < start);
+    for b in bricks[first..].iter().take_while(|b| b.key < end) {
+        push(at, b.key);
+        at = b.key + 1;
+    }
+    push(at, end);
+}
+
+/// Inside runs in key order, adjacent ones merged, empty ones dropped: the runs of a file do
+/// not depend on how the spans that make them were cut.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RunList {
+    /// The runs so far.
+    pub runs: Vec<KeyRange>,
+}
+
+impl RunList {
+    /// Add `[start, end)`, which must not start before the last run ends.
+    pub fn push(&mut self, start: u64, end: u64) {
         if start >= end {
             return;
         }
-        match inside.last_mut() {
+        match self.runs.last_mut() {
             Some(last) if last.end == start => last.end = end,
-            _ => inside.push(KeyRange { start, end }),
+            _ => self.runs.push(KeyRange { start, end }),
         }
-    };
-    for (start, end) in solid.enclosed_spans() {
-        let mut at = start;
-        let first = bricks.partition_point(|b| b.key < start);
-        for b in bricks[first..].iter().take_while(|b| b.key < end) {
-            push(at, b.key);
-            at = b.key + 1;
-        }
-        push(at, end);
     }
-    report.t_layers = t.elapsed();
-    Voxmap::from_parts(grid, layers, bricks, inside)
 }

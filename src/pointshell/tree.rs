@@ -779,7 +779,7 @@ pub mod reference {
     fn smallest_enclosing(qs: &[DVec3]) -> B {
         let mut best: Option<B> = None;
         let mut consider = |b: B| {
-            if qs.iter().all(|&q| b.contains(q)) && best.map_or(true, |x| b.r2 < x.r2) {
+            if qs.iter().all(|&q| b.contains(q)) && best.is_none_or(|x| b.r2 < x.r2) {
                 best = Some(b);
             }
         };

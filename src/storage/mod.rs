@@ -13,6 +13,7 @@
 pub mod format;
 mod mmap;
 pub mod pointshell;
+pub mod spill;
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -180,7 +181,7 @@ pub struct VerifyReport {
 }
 
 /// What a write produced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WriteReport {
     /// Length of the file written.
     pub file_bytes: u64,
@@ -866,7 +867,15 @@ impl VoxmapWriter {
         if layers > MAX_LAYERS {
             return Err(invalid(format!("layers is {layers}, at most {MAX_LAYERS}")));
         }
-        let tmp = temp_file_beside(&path, ".vxm-")?;
+        let tmp = temp_file_beside(&path, spill::VXM_TMP_PREFIX)?;
+        // The lock tells another run's `spill::clean_stale` that this file is in use; the
+        // system drops it when the file closes, even if the process is killed.
+        if let Err(e) = tmp.as_file().try_lock() {
+            tracing::warn!(
+                "cannot lock {} ({e}); another vps run cleaning this directory could remove it",
+                tmp.path().display()
+            );
+        }
         let compressor = new_compressor().map_err(|source| StorageError::Io {
             action: "set up zstd for",
             path: path.clone(),

@@ -5,26 +5,36 @@
 //! one (x, y) column of bricks is a single node, a *span*. Bricks with surface voxels are filled
 //! voxel by voxel with bit masks. The graph therefore has one node per surface brick plus one
 //! per gap between them in each column: its size follows the surface, not the volume.
+//!
+//! For grids too large to hold at once, [`Components`] labels the open voxels of one slab of
+//! bricks along x; the caller unites labels across slab faces ([`Components::unite_across`])
+//! and turns each slab's labels into its [`Outside`] ([`Components::into_outside`]).
 
 use std::collections::VecDeque;
 
 use super::mask::{Face, Mask512};
+use crate::grid::split_voxel;
 
-/// Which voxels the outside flood fill reached.
-#[derive(Clone, Debug)]
-pub struct Outside {
+/// The four faces that lead to a neighbouring column.
+const SIDES: [Face; 4] = [
+    Face { axis: 0, side: 0 },
+    Face { axis: 0, side: 1 },
+    Face { axis: 1, side: 0 },
+    Face { axis: 1, side: 1 },
+];
+
+/// The sparse graph shared by the fill and the labelling: surface bricks by column, and the
+/// gaps between them.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Columns {
     nb: [u32; 3],
     /// For column `c = bx * ny + by`, its surface bricks are `col_start[c]..col_start[c + 1]`.
     col_start: Vec<u32>,
     /// Brick z of each surface brick.
     bz: Vec<u32>,
-    /// Reached voxels of each surface brick.
-    reached: Vec<Mask512>,
-    /// Whether each gap was reached; gap `j` of column `c` has id `col_start[c] + c + j`.
-    span_reached: Vec<bool>,
 }
 
-/// A node of the fill graph.
+/// A node of the graph.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Node {
     /// A surface brick, by index.
@@ -33,11 +43,20 @@ enum Node {
     Span(u32),
 }
 
-impl Outside {
-    /// Flood the outside of `surface` (surface masks sorted by brick key, keys as in
-    /// [`crate::grid::Grid::brick_key`]) in a grid of `nb` bricks, from voxel (0, 0, 0), which
-    /// must not be a surface voxel.
-    pub fn flood(nb: [u32; 3], surface: &[(u64, Mask512)]) -> Outside {
+/// A non-empty gap: bricks `z0..z1` of column `col`, between the surface bricks `below` and
+/// `above` (if any).
+#[derive(Clone, Copy, Debug)]
+struct Gap {
+    id: u32,
+    col: usize,
+    z0: u32,
+    z1: u32,
+    below: Option<u32>,
+    above: Option<u32>,
+}
+
+impl Columns {
+    fn new(nb: [u32; 3], surface: &[(u64, Mask512)]) -> Columns {
         let ncols = nb[0] as usize * nb[1] as usize;
         let mut col_start = vec![0u32; ncols + 1];
         let mut bz = Vec::with_capacity(surface.len());
@@ -49,21 +68,25 @@ impl Outside {
         for c in 0..ncols {
             col_start[c + 1] += col_start[c];
         }
-        let mut out = Outside {
-            nb,
-            col_start,
-            bz,
-            reached: vec![Mask512::EMPTY; surface.len()],
-            span_reached: vec![false; surface.len() + ncols],
-        };
-        let walls: Vec<Mask512> = surface.iter().map(|s| s.1).collect();
-        out.run(&walls);
-        out
+        Columns { nb, col_start, bz }
+    }
+
+    fn ncols(&self) -> usize {
+        self.col_start.len() - 1
+    }
+
+    /// Gap ids run over `0..gap_count()`; gap `j` of column `c` has id `col_start[c] + c + j`.
+    fn gap_count(&self) -> usize {
+        self.bz.len() + self.ncols()
+    }
+
+    fn bricks_of(&self, c: usize) -> (usize, usize) {
+        (self.col_start[c] as usize, self.col_start[c + 1] as usize)
     }
 
     /// The node holding brick `(c, z)`: a surface brick or the gap containing it.
     fn node_at(&self, c: usize, z: u32) -> Node {
-        let (s, e) = (self.col_start[c] as usize, self.col_start[c + 1] as usize);
+        let (s, e) = self.bricks_of(c);
         let j = self.bz[s..e].partition_point(|&b| b < z);
         if s + j < e && self.bz[s + j] == z {
             Node::Brick((s + j) as u32)
@@ -72,23 +95,39 @@ impl Outside {
         }
     }
 
-    /// Column and z range `[z0, z1]` of gap `id`; `None` if the gap is empty.
-    fn span_range(&self, id: u32) -> Option<(usize, u32, u32)> {
-        let id = id as usize;
-        let c = self.column_of_gap(id);
-        let s = self.col_start[c] as usize;
-        let e = self.col_start[c + 1] as usize;
-        let j = id - s - c;
+    /// Gap `j` of column `c`; `None` if it holds no brick.
+    fn gap_in(&self, c: usize, j: usize) -> Option<Gap> {
+        let (s, e) = self.bricks_of(c);
         let z0 = if j == 0 { 0 } else { self.bz[s + j - 1] + 1 };
         let z1 = if s + j < e { self.bz[s + j] } else { self.nb[2] };
-        (z1 > z0).then(|| (c, z0, z1 - 1))
+        (z1 > z0).then(|| Gap {
+            id: (s + c + j) as u32,
+            col: c,
+            z0,
+            z1,
+            below: (j > 0).then(|| (s + j - 1) as u32),
+            above: (s + j < e).then_some((s + j) as u32),
+        })
+    }
+
+    /// Gap `id`; `None` if it holds no brick.
+    fn gap(&self, id: u32) -> Option<Gap> {
+        let c = self.column_of_gap(id as usize);
+        self.gap_in(c, id as usize - self.col_start[c] as usize - c)
+    }
+
+    /// The non-empty gaps in id order.
+    fn gaps(&self) -> impl Iterator<Item = Gap> + '_ {
+        (0..self.ncols()).flat_map(move |c| {
+            let (s, e) = self.bricks_of(c);
+            (0..=e - s).filter_map(move |j| self.gap_in(c, j))
+        })
     }
 
     /// The column of gap `id`: the largest `c` with `col_start[c] + c <= id`, as column `c`
     /// holds gap ids `col_start[c] + c ..= col_start[c + 1] + c`.
     fn column_of_gap(&self, id: usize) -> usize {
-        let n = self.col_start.len() - 1;
-        let (mut lo, mut hi) = (0usize, n);
+        let (mut lo, mut hi) = (0usize, self.ncols());
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
             if self.col_start[mid] as usize + mid <= id {
@@ -116,134 +155,82 @@ impl Outside {
         (x < self.nb[0] && y < self.nb[1]).then(|| x as usize * self.nb[1] as usize + y as usize)
     }
 
-    fn run(&mut self, walls: &[Mask512]) {
-        let mut queue = VecDeque::new();
-        let mut queued = vec![false; walls.len()];
-        match self.node_at(0, 0) {
-            Node::Span(id) => {
-                self.span_reached[id as usize] = true;
-                queue.push_back(Node::Span(id));
-            }
-            Node::Brick(i) => {
-                let mut seed = Mask512::EMPTY;
-                seed.set(0);
-                self.seed_brick(i, seed, walls, &mut queue, &mut queued);
-            }
-        }
-        while let Some(node) = queue.pop_front() {
-            match node {
-                Node::Span(id) => self.visit_span(id, walls, &mut queue, &mut queued),
-                Node::Brick(i) => {
-                    queued[i as usize] = false;
-                    self.visit_brick(i, walls, &mut queue, &mut queued);
-                }
-            }
+    /// The neighbour of surface brick `i` (in column `c`) across `face`, if inside the grid.
+    fn neighbour(&self, c: usize, i: usize, face: Face) -> Option<Node> {
+        let z = self.bz[i];
+        match (face.axis, face.side) {
+            (2, 0) => z.checked_sub(1).map(|z| self.node_at(c, z)),
+            (2, _) => (z + 1 < self.nb[2]).then(|| self.node_at(c, z + 1)),
+            _ => self.side_column(c, face).map(|nc| self.node_at(nc, z)),
         }
     }
 
-    fn seed_brick(
-        &mut self,
-        i: u32,
-        seed: Mask512,
-        walls: &[Mask512],
-        queue: &mut VecDeque<Node>,
-        queued: &mut [bool],
-    ) {
-        let fresh = seed.and_not(&walls[i as usize]).and_not(&self.reached[i as usize]);
-        if fresh.is_empty() {
-            return;
-        }
-        self.reached[i as usize] = self.reached[i as usize].or(&fresh);
-        if !queued[i as usize] {
-            queued[i as usize] = true;
-            queue.push_back(Node::Brick(i));
-        }
-    }
-
-    fn reach_span(&mut self, id: u32, queue: &mut VecDeque<Node>) {
-        if !self.span_reached[id as usize] {
-            self.span_reached[id as usize] = true;
-            queue.push_back(Node::Span(id));
+    /// Call `f(node, z0, z1)` for each node of column `c` holding some of bricks `z0..z1`, in z
+    /// order, with the node's own brick range: walking a column beside a span costs what
+    /// overlaps it, not a search per brick.
+    fn items_in(&self, c: usize, z0: u32, z1: u32, mut f: impl FnMut(Node, u32, u32)) {
+        let (s, e) = self.bricks_of(c);
+        let mut k = s + self.bz[s..e].partition_point(|&b| b < z0);
+        // The gap just below brick k (gap index k - s) may overlap z0..z1.
+        loop {
+            let gap_lo = if k == s { 0 } else { self.bz[k - 1] + 1 };
+            let gap_hi = if k < e { self.bz[k] } else { self.nb[2] };
+            if gap_hi > gap_lo && gap_hi > z0 && gap_lo < z1 {
+                f(Node::Span((k + c) as u32), gap_lo, gap_hi);
+            }
+            if k >= e || self.bz[k] >= z1 {
+                break;
+            }
+            f(Node::Brick(k as u32), self.bz[k], self.bz[k] + 1);
+            k += 1;
         }
     }
+}
 
-    /// A reached span opens every face it shares with its neighbours.
-    fn visit_span(&mut self, id: u32, walls: &[Mask512], queue: &mut VecDeque<Node>, queued: &mut [bool]) {
-        let Some((c, z0, z1)) = self.span_range(id) else {
-            return;
+/// Which voxels the outside flood fill reached.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Outside {
+    cols: Columns,
+    /// Reached voxels of each surface brick.
+    reached: Vec<Mask512>,
+    /// Whether each gap was reached, by gap id.
+    span_reached: Vec<bool>,
+}
+
+/// The state of one flood fill.
+struct Flood<'a> {
+    cols: &'a Columns,
+    walls: &'a [Mask512],
+    reached: Vec<Mask512>,
+    span_reached: Vec<bool>,
+    queue: VecDeque<Node>,
+    queued: Vec<bool>,
+}
+
+impl Outside {
+    /// Flood the outside of `surface` (surface masks sorted by brick key, keys as in
+    /// [`crate::grid::Grid::brick_key`]) in a grid of `nb` bricks, from voxel (0, 0, 0), which
+    /// must not be a surface voxel.
+    pub fn flood(nb: [u32; 3], surface: &[(u64, Mask512)]) -> Outside {
+        let cols = Columns::new(nb, surface);
+        let walls: Vec<Mask512> = surface.iter().map(|s| s.1).collect();
+        let mut f = Flood {
+            cols: &cols,
+            walls: &walls,
+            reached: vec![Mask512::EMPTY; surface.len()],
+            span_reached: vec![false; cols.gap_count()],
+            queue: VecDeque::new(),
+            queued: vec![false; surface.len()],
         };
-        let (s, e) = (self.col_start[c] as usize, self.col_start[c + 1] as usize);
-        let j = id as usize - s - c;
-        // The surface bricks capping the span below and above.
-        if j > 0 {
-            let f = Face { axis: 2, side: 1 };
-            self.seed_brick((s + j - 1) as u32, Mask512::face(f), walls, queue, queued);
+        f.run();
+        let Flood {
+            reached, span_reached, ..
+        } = f;
+        Outside {
+            cols,
+            reached,
+            span_reached,
         }
-        if s + j < e {
-            let f = Face { axis: 2, side: 0 };
-            self.seed_brick((s + j) as u32, Mask512::face(f), walls, queue, queued);
-        }
-        // Everything beside it in the four neighbouring columns, over z0..=z1.
-        for face in [
-            Face { axis: 0, side: 0 },
-            Face { axis: 0, side: 1 },
-            Face { axis: 1, side: 0 },
-            Face { axis: 1, side: 1 },
-        ] {
-            let Some(nc) = self.side_column(c, face) else {
-                continue;
-            };
-            let (ns, ne) = (self.col_start[nc] as usize, self.col_start[nc + 1] as usize);
-            let mut k = ns + self.bz[ns..ne].partition_point(|&b| b < z0);
-            // The gap just below brick k (gap index k - ns) may overlap [z0, z1].
-            loop {
-                let gap_lo = if k == ns { 0 } else { self.bz[k - 1] + 1 };
-                let gap_hi = if k < ne {
-                    self.bz[k] as i64 - 1
-                } else {
-                    self.nb[2] as i64 - 1
-                };
-                if gap_hi >= gap_lo as i64 && gap_hi >= z0 as i64 && (gap_lo as i64) <= z1 as i64 {
-                    self.reach_span((k + nc) as u32, queue);
-                }
-                if k >= ne || self.bz[k] > z1 {
-                    break;
-                }
-                self.seed_brick(k as u32, Mask512::face(face.opposite()), walls, queue, queued);
-                k += 1;
-            }
-        }
-    }
-
-    /// Fill a surface brick from its reached voxels, then pass what reaches its faces on.
-    fn visit_brick(&mut self, i: u32, walls: &[Mask512], queue: &mut VecDeque<Node>, queued: &mut [bool]) {
-        let open = Mask512::FULL.and_not(&walls[i as usize]);
-        let filled = self.reached[i as usize].flood_within(&open);
-        self.reached[i as usize] = filled;
-        let col = self.column_of_brick(i as usize);
-        let z = self.bz[i as usize];
-        for face in Face::ALL {
-            let out = filled.across(face);
-            if out.is_empty() {
-                continue;
-            }
-            let target = match (face.axis, face.side) {
-                (2, 0) if z == 0 => None,
-                (2, 0) => Some(self.node_at(col, z - 1)),
-                (2, _) if z + 1 >= self.nb[2] => None,
-                (2, _) => Some(self.node_at(col, z + 1)),
-                _ => self.side_column(col, face).map(|nc| self.node_at(nc, z)),
-            };
-            match target {
-                Some(Node::Span(id)) => self.reach_span(id, queue),
-                Some(Node::Brick(j)) => self.seed_brick(j, out, walls, queue, queued),
-                None => {}
-            }
-        }
-    }
-
-    fn column_of_brick(&self, i: usize) -> usize {
-        self.col_start.partition_point(|&s| s as usize <= i) - 1
     }
 
     /// Voxels of surface brick `i` (index into the surface list) that are outside.
@@ -251,11 +238,25 @@ impl Outside {
         self.reached[i]
     }
 
+    /// The outside voxels of the surface brick at `key`; `None` if that brick has no surface
+    /// voxels (or lies beyond the grid).
+    pub fn outside_voxels_of(&self, key: u64) -> Option<Mask512> {
+        let nz = self.cols.nb[2] as u64;
+        let c = key / nz;
+        if c >= self.cols.ncols() as u64 {
+            return None;
+        }
+        match self.cols.node_at(c as usize, (key % nz) as u32) {
+            Node::Brick(i) => Some(self.reached[i as usize]),
+            Node::Span(_) => None,
+        }
+    }
+
     /// Whether the brick at `key`, which has no surface voxels, is outside (all its voxels alike).
     pub fn empty_brick_is_outside(&self, key: u64) -> bool {
-        let c = (key / self.nb[2] as u64) as usize;
-        let z = (key % self.nb[2] as u64) as u32;
-        match self.node_at(c, z) {
+        let c = (key / self.cols.nb[2] as u64) as usize;
+        let z = (key % self.cols.nb[2] as u64) as u32;
+        match self.cols.node_at(c, z) {
             Node::Span(id) => self.span_reached[id as usize],
             // A surface brick has no single answer; callers ask only about empty bricks.
             Node::Brick(_) => false,
@@ -265,12 +266,937 @@ impl Outside {
     /// Ranges of brick keys `[start, end)` of empty bricks that the fill did not reach: the
     /// enclosed inside, in key order.
     pub fn enclosed_spans(&self) -> impl Iterator<Item = (u64, u64)> + '_ {
-        let nz = self.nb[2] as u64;
-        (0..self.span_reached.len())
-            .filter(|&id| !self.span_reached[id])
-            .filter_map(move |id| {
-                let (c, z0, z1) = self.span_range(id as u32)?;
-                Some((c as u64 * nz + z0 as u64, c as u64 * nz + z1 as u64 + 1))
+        let nz = self.cols.nb[2] as u64;
+        self.cols
+            .gaps()
+            .filter(|g| !self.span_reached[g.id as usize])
+            .map(move |g| (g.col as u64 * nz + g.z0 as u64, g.col as u64 * nz + g.z1 as u64))
+    }
+}
+
+impl Flood<'_> {
+    fn run(&mut self) {
+        match self.cols.node_at(0, 0) {
+            Node::Span(id) => self.reach_span(id),
+            Node::Brick(i) => {
+                let mut seed = Mask512::EMPTY;
+                seed.set(0);
+                self.seed_brick(i, seed);
+            }
+        }
+        while let Some(node) = self.queue.pop_front() {
+            match node {
+                Node::Span(id) => self.visit_span(id),
+                Node::Brick(i) => {
+                    self.queued[i as usize] = false;
+                    self.visit_brick(i);
+                }
+            }
+        }
+    }
+
+    fn seed_brick(&mut self, i: u32, seed: Mask512) {
+        let i = i as usize;
+        let fresh = seed.and_not(&self.walls[i]).and_not(&self.reached[i]);
+        if fresh.is_empty() {
+            return;
+        }
+        self.reached[i] = self.reached[i].or(&fresh);
+        if !self.queued[i] {
+            self.queued[i] = true;
+            self.queue.push_back(Node::Brick(i as u32));
+        }
+    }
+
+    fn reach_span(&mut self, id: u32) {
+        if !self.span_reached[id as usize] {
+            self.span_reached[id as usize] = true;
+            self.queue.push_back(Node::Span(id));
+        }
+    }
+
+    /// A reached span opens every face it shares with its neighbours.
+    fn visit_span(&mut self, id: u32) {
+        let cols = self.cols;
+        let Some(g) = cols.gap(id) else {
+            return;
+        };
+        if let Some(b) = g.below {
+            self.seed_brick(b, Mask512::face(Face { axis: 2, side: 1 }));
+        }
+        if let Some(a) = g.above {
+            self.seed_brick(a, Mask512::face(Face { axis: 2, side: 0 }));
+        }
+        for face in SIDES {
+            let Some(nc) = cols.side_column(g.col, face) else {
+                continue;
+            };
+            cols.items_in(nc, g.z0, g.z1, |node, _, _| match node {
+                Node::Span(s) => self.reach_span(s),
+                Node::Brick(k) => self.seed_brick(k, Mask512::face(face.opposite())),
+            });
+        }
+    }
+
+    /// Fill a surface brick from its reached voxels, then pass what reaches its faces on.
+    fn visit_brick(&mut self, i: u32) {
+        let open = Mask512::FULL.and_not(&self.walls[i as usize]);
+        let filled = self.reached[i as usize].flood_within(&open);
+        self.reached[i as usize] = filled;
+        let col = self.cols.col_start.partition_point(|&s| s <= i) - 1;
+        for face in Face::ALL {
+            let out = filled.across(face);
+            if out.is_empty() {
+                continue;
+            }
+            match self.cols.neighbour(col, i as usize, face) {
+                Some(Node::Span(id)) => self.reach_span(id),
+                Some(Node::Brick(j)) => self.seed_brick(j, out),
+                None => {}
+            }
+        }
+    }
+}
+
+/// Label of no component: an empty gap.
+const NO_LABEL: u32 = u32::MAX;
+
+/// The connected components (6-connected) of the non-surface voxels of a grid of bricks, whose
+/// boundary is a wall. Held like [`Outside`]: one label per span, and per surface brick its
+/// open voxels split into parts that are connected inside the brick, each with a label.
+#[derive(Clone, Debug)]
+pub struct Components {
+    cols: Columns,
+    count: u32,
+    /// Label of each gap, by gap id; [`NO_LABEL`] for an empty gap.
+    span_label: Vec<u32>,
+    /// The parts of surface brick `i` are `part_start[i]..part_start[i + 1]`.
+    part_start: Vec<u32>,
+    /// Voxels of each part.
+    parts: Vec<Mask512>,
+    /// Label of each part.
+    part_label: Vec<u32>,
+}
+
+/// The labels on one x face of a grid, column by column (brick y), each column as its spans and
+/// surface bricks in z order.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct XFace {
+    nz: u32,
+    /// Items of brick column `by` are `col_start[by]..col_start[by + 1]`.
+    col_start: Vec<u32>,
+    items: Vec<FaceItem>,
+}
+
+/// One node of a grid's x face.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FaceItem {
+    /// Empty bricks `z0..z1` (brick z), all of one label.
+    Span {
+        /// First brick z.
+        z0: u32,
+        /// One past the last brick z.
+        z1: u32,
+        /// Their label.
+        label: u32,
+    },
+    /// A surface brick at brick z `bz`.
+    Brick {
+        /// Brick z.
+        bz: u32,
+        /// Each label with open voxels on the face, and those voxels: bit `z * 8 + y` (local
+        /// coordinates). Labels are distinct and bits never empty.
+        parts: Vec<(u32, u64)>,
+    },
+}
+
+impl FaceItem {
+    /// Brick z range `[z0, z1)` of the item.
+    pub fn z_range(&self) -> (u32, u32) {
+        match *self {
+            FaceItem::Span { z0, z1, .. } => (z0, z1),
+            FaceItem::Brick { bz, .. } => (bz, bz + 1),
+        }
+    }
+}
+
+impl XFace {
+    /// Bricks along y.
+    pub fn ny(&self) -> u32 {
+        (self.col_start.len() - 1) as u32
+    }
+
+    /// Bricks along z.
+    pub fn nz(&self) -> u32 {
+        self.nz
+    }
+
+    /// The items of brick column `by`, in z order; empty gaps have none.
+    pub fn column(&self, by: u32) -> &[FaceItem] {
+        let by = by as usize;
+        &self.items[self.col_start[by] as usize..self.col_start[by + 1] as usize]
+    }
+}
+
+/// Union-find with path halving and union by rank.
+pub(crate) struct UnionFind {
+    parent: Vec<u32>,
+    rank: Vec<u8>,
+}
+
+impl UnionFind {
+    pub(crate) fn new(n: usize) -> UnionFind {
+        UnionFind {
+            parent: (0..n as u32).collect(),
+            rank: vec![0; n],
+        }
+    }
+
+    pub(crate) fn find(&mut self, mut x: u32) -> u32 {
+        while self.parent[x as usize] != x {
+            let p = self.parent[x as usize];
+            self.parent[x as usize] = self.parent[p as usize];
+            x = p;
+        }
+        x
+    }
+
+    pub(crate) fn union(&mut self, a: u32, b: u32) {
+        let (a, b) = (self.find(a), self.find(b));
+        if a == b {
+            return;
+        }
+        let (ra, rb) = (self.rank[a as usize], self.rank[b as usize]);
+        if ra < rb {
+            self.parent[a as usize] = b;
+        } else {
+            self.parent[b as usize] = a;
+            if ra == rb {
+                self.rank[a as usize] += 1;
+            }
+        }
+    }
+}
+
+/// Split the open voxels of a brick with surface voxels `wall` into parts connected inside it.
+fn split_parts(wall: &Mask512, parts: &mut Vec<Mask512>) {
+    let open = Mask512::FULL.and_not(wall);
+    let mut rest = open;
+    loop {
+        let Some(v) = rest.iter().next() else {
+            return;
+        };
+        let mut seed = Mask512::EMPTY;
+        seed.set(v);
+        let part = seed.flood_within(&open);
+        rest = rest.and_not(&part);
+        parts.push(part);
+    }
+}
+
+/// The voxels of `m` at local x = `lx`, as bit `z * 8 + y`.
+fn x_face_bits(m: &Mask512, lx: u32) -> u64 {
+    let mut bits = 0u64;
+    for (z, &w) in m.0.iter().enumerate() {
+        // Bits y * 8 (one per row) folded down into the low byte.
+        let mut r = (w >> lx) & 0x0101_0101_0101_0101;
+        r |= r >> 7;
+        r |= r >> 14;
+        r |= r >> 28;
+        bits |= (r & 0xff) << (8 * z);
+    }
+    bits
+}
+
+impl Components {
+    /// Label the components of the non-surface voxels of a grid of `nb` bricks with surface
+    /// masks `surface` (sorted by key, as for [`Outside::flood`]). Labels are `0..count()`,
+    /// numbered by first appearance over gaps in id order, then parts of surface bricks in order.
+    pub fn label(nb: [u32; 3], surface: &[(u64, Mask512)]) -> Components {
+        let cols = Columns::new(nb, surface);
+        let ngaps = cols.gap_count();
+        let mut part_start = Vec::with_capacity(surface.len() + 1);
+        let mut parts = Vec::with_capacity(surface.len());
+        part_start.push(0u32);
+        for (_, wall) in surface {
+            split_parts(wall, &mut parts);
+            part_start.push(parts.len() as u32);
+        }
+        let parts_of = |i: u32| part_start[i as usize] as usize..part_start[i as usize + 1] as usize;
+        // Union-find nodes: gap ids, then `ngaps + p` for part p.
+        let part_node = |p: usize| (ngaps + p) as u32;
+        let mut uf = UnionFind::new(ngaps + parts.len());
+        let join_face = |uf: &mut UnionFind, node: u32, brick: u32, face: Face| {
+            let f = Mask512::face(face);
+            for p in parts_of(brick) {
+                if !parts[p].and(&f).is_empty() {
+                    uf.union(node, part_node(p));
+                }
+            }
+        };
+        for g in cols.gaps() {
+            if let Some(b) = g.below {
+                join_face(&mut uf, g.id, b, Face { axis: 2, side: 1 });
+            }
+            if let Some(a) = g.above {
+                join_face(&mut uf, g.id, a, Face { axis: 2, side: 0 });
+            }
+            for face in SIDES {
+                let Some(nc) = cols.side_column(g.col, face) else {
+                    continue;
+                };
+                cols.items_in(nc, g.z0, g.z1, |node, _, _| match node {
+                    Node::Span(s) => uf.union(g.id, s),
+                    Node::Brick(k) => join_face(&mut uf, g.id, k, face.opposite()),
+                });
+            }
+        }
+        // Brick to brick, each touching pair once from its low side.
+        for c in 0..cols.ncols() {
+            let (s, e) = cols.bricks_of(c);
+            for i in s..e {
+                for face in [
+                    Face { axis: 0, side: 1 },
+                    Face { axis: 1, side: 1 },
+                    Face { axis: 2, side: 1 },
+                ] {
+                    let Some(Node::Brick(j)) = cols.neighbour(c, i, face) else {
+                        continue;
+                    };
+                    for p in parts_of(i as u32) {
+                        let across = parts[p].across(face);
+                        if across.is_empty() {
+                            continue;
+                        }
+                        for q in parts_of(j) {
+                            if !parts[q].and(&across).is_empty() {
+                                uf.union(part_node(p), part_node(q));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Number the roots in a fixed order, so equal input gives equal labels.
+        let mut root_label = vec![NO_LABEL; ngaps + parts.len()];
+        let mut count = 0u32;
+        let mut label_node = |uf: &mut UnionFind, node: u32| {
+            let r = uf.find(node) as usize;
+            if root_label[r] == NO_LABEL {
+                root_label[r] = count;
+                count += 1;
+            }
+            root_label[r]
+        };
+        let mut span_label = vec![NO_LABEL; ngaps];
+        for g in cols.gaps() {
+            span_label[g.id as usize] = label_node(&mut uf, g.id);
+        }
+        let part_label: Vec<u32> = (0..parts.len()).map(|p| label_node(&mut uf, part_node(p))).collect();
+        Components {
+            cols,
+            count,
+            span_label,
+            part_start,
+            parts,
+            part_label,
+        }
+    }
+
+    /// Number of components.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    fn parts_of(&self, i: u32) -> std::ops::Range<usize> {
+        self.part_start[i as usize] as usize..self.part_start[i as usize + 1] as usize
+    }
+
+    /// The label of voxel `v`; `None` for a surface voxel or one beyond the grid.
+    pub fn label_of(&self, v: [u32; 3]) -> Option<u32> {
+        let (b, local) = split_voxel(v);
+        let nb = self.cols.nb;
+        if (0..3).any(|a| b[a] >= nb[a]) {
+            return None;
+        }
+        let c = b[0] as usize * nb[1] as usize + b[1] as usize;
+        match self.cols.node_at(c, b[2]) {
+            Node::Span(id) => Some(self.span_label[id as usize]),
+            Node::Brick(i) => self
+                .parts_of(i)
+                .find(|&p| self.parts[p].get(local))
+                .map(|p| self.part_label[p]),
+        }
+    }
+
+    /// The labels on the low (`side` 0, voxel x = 0) or high (`side` 1, the last voxel x) x
+    /// face of the grid: what [`Components::unite_across`] needs from this slab.
+    pub fn x_face(&self, side: usize) -> XFace {
+        let [nx, ny, nz] = self.cols.nb;
+        let (bx, lx) = if side == 0 { (0, 0) } else { (nx - 1, 7) };
+        let mut col_start = Vec::with_capacity(ny as usize + 1);
+        let mut items = Vec::new();
+        col_start.push(0u32);
+        for by in 0..ny {
+            let c = bx as usize * ny as usize + by as usize;
+            self.cols.items_in(c, 0, nz, |node, z0, z1| match node {
+                Node::Span(id) => items.push(FaceItem::Span {
+                    z0,
+                    z1,
+                    label: self.span_label[id as usize],
+                }),
+                Node::Brick(i) => {
+                    let mut parts: Vec<(u32, u64)> = Vec::new();
+                    for p in self.parts_of(i) {
+                        let bits = x_face_bits(&self.parts[p], lx);
+                        if bits == 0 {
+                            continue;
+                        }
+                        let label = self.part_label[p];
+                        match parts.iter_mut().find(|e| e.0 == label) {
+                            Some(e) => e.1 |= bits,
+                            None => parts.push((label, bits)),
+                        }
+                    }
+                    if !parts.is_empty() {
+                        items.push(FaceItem::Brick { bz: z0, parts });
+                    }
+                }
+            });
+            col_start.push(items.len() as u32);
+        }
+        XFace { nz, col_start, items }
+    }
+
+    /// Call `unite(a, b)` for labels `a` of `high` (a slab's high x face) and `b` of `low` (the
+    /// next slab's low x face) that meet across the boundary; at most once per pair of
+    /// overlapping items, or of parts in two overlapping bricks.
+    pub fn unite_across(high: &XFace, low: &XFace, mut unite: impl FnMut(u32, u32)) {
+        assert!(high.ny() == low.ny() && high.nz == low.nz, "faces of different sizes");
+        for by in 0..high.ny() {
+            let (a, b) = (high.column(by), low.column(by));
+            let (mut i, mut j) = (0, 0);
+            while i < a.len() && j < b.len() {
+                let (a0, a1) = a[i].z_range();
+                let (b0, b1) = b[j].z_range();
+                if a0 < b1 && b0 < a1 {
+                    unite_items(&a[i], &b[j], &mut unite);
+                }
+                if a1 <= b1 {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
+            }
+        }
+    }
+
+    /// The [`Outside`] whose reached voxels are exactly those with a label for which
+    /// `is_outside` holds.
+    pub fn into_outside(self, mut is_outside: impl FnMut(u32) -> bool) -> Outside {
+        let reached = (0..self.part_start.len() - 1)
+            .map(|i| {
+                self.parts_of(i as u32)
+                    .filter(|&p| is_outside(self.part_label[p]))
+                    .fold(Mask512::EMPTY, |m, p| m.or(&self.parts[p]))
             })
+            .collect();
+        let span_reached = self
+            .span_label
+            .iter()
+            .map(|&l| l != NO_LABEL && is_outside(l))
+            .collect();
+        Outside {
+            cols: self.cols,
+            reached,
+            span_reached,
+        }
+    }
+}
+
+/// Unite the labels of two overlapping face items that touch: a span's voxels are all open, so
+/// it meets every part of a brick; two bricks meet where their face bits do.
+fn unite_items(a: &FaceItem, b: &FaceItem, unite: &mut impl FnMut(u32, u32)) {
+    match (a, b) {
+        (FaceItem::Span { label: la, .. }, FaceItem::Span { label: lb, .. }) => unite(*la, *lb),
+        (FaceItem::Span { label: la, .. }, FaceItem::Brick { parts, .. }) => {
+            for &(lb, _) in parts {
+                unite(*la, lb);
+            }
+        }
+        (FaceItem::Brick { parts, .. }, FaceItem::Span { label: lb, .. }) => {
+            for &(la, _) in parts {
+                unite(la, *lb);
+            }
+        }
+        (FaceItem::Brick { parts: pa, .. }, FaceItem::Brick { parts: pb, .. }) => {
+            for &(la, ba) in pa {
+                for &(lb, bb) in pb {
+                    if ba & bb != 0 {
+                        unite(la, lb);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::local_index;
+
+    /// SplitMix64: a seeded generator so every case can be replayed.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+
+        /// Uniform in `lo..hi`.
+        fn range(&mut self, lo: u32, hi: u32) -> u32 {
+            lo + (self.next() % (hi - lo) as u64) as u32
+        }
+
+        fn chance(&mut self, p: f64) -> bool {
+            (self.next() >> 11) as f64 / (1u64 << 53) as f64 > 1.0 - p
+        }
+    }
+
+    /// A dense grid of walls, in voxels.
+    struct Dense {
+        nb: [u32; 3],
+        wall: Vec<bool>,
+    }
+
+    impl Dense {
+        fn new(nb: [u32; 3]) -> Dense {
+            let n = nb.iter().map(|&b| 8 * b as usize).product();
+            Dense {
+                nb,
+                wall: vec![false; n],
+            }
+        }
+
+        fn dims(&self) -> [u32; 3] {
+            self.nb.map(|b| 8 * b)
+        }
+
+        fn index(&self, v: [u32; 3]) -> usize {
+            let d = self.dims();
+            (v[0] as usize * d[1] as usize + v[1] as usize) * d[2] as usize + v[2] as usize
+        }
+
+        fn set(&mut self, v: [u32; 3], wall: bool) {
+            let i = self.index(v);
+            self.wall[i] = wall;
+        }
+
+        /// Set every voxel of the box `lo..=hi`.
+        fn fill_box(&mut self, lo: [u32; 3], hi: [u32; 3], wall: bool) {
+            for x in lo[0]..=hi[0] {
+                for y in lo[1]..=hi[1] {
+                    for z in lo[2]..=hi[2] {
+                        self.set([x, y, z], wall);
+                    }
+                }
+            }
+        }
+
+        fn voxels(&self) -> impl Iterator<Item = [u32; 3]> {
+            let d = self.dims();
+            (0..d[0]).flat_map(move |x| (0..d[1]).flat_map(move |y| (0..d[2]).map(move |z| [x, y, z])))
+        }
+
+        /// The surface list, as [`Outside::flood`] takes it.
+        fn surface(&self) -> Vec<(u64, Mask512)> {
+            let nb = self.nb;
+            let mut out = Vec::new();
+            for bx in 0..nb[0] {
+                for by in 0..nb[1] {
+                    for bz in 0..nb[2] {
+                        let mut m = Mask512::EMPTY;
+                        for (x, y, z) in (0..8).flat_map(|x| (0..8).flat_map(move |y| (0..8).map(move |z| (x, y, z)))) {
+                            if self.wall[self.index([bx * 8 + x, by * 8 + y, bz * 8 + z])] {
+                                m.set(local_index(x, y, z));
+                            }
+                        }
+                        if !m.is_empty() {
+                            out.push((((bx * nb[1] + by) * nb[2] + bz) as u64, m));
+                        }
+                    }
+                }
+            }
+            out
+        }
+
+        /// Plain BFS labels of the open voxels (`u32::MAX` on walls).
+        fn labels(&self) -> Vec<u32> {
+            let d = self.dims();
+            let mut label = vec![u32::MAX; self.wall.len()];
+            let mut next = 0;
+            let mut queue = VecDeque::new();
+            for v in self.voxels() {
+                let i = self.index(v);
+                if self.wall[i] || label[i] != u32::MAX {
+                    continue;
+                }
+                label[i] = next;
+                queue.push_back(v);
+                while let Some(u) = queue.pop_front() {
+                    for a in 0..3 {
+                        for step in [-1i64, 1] {
+                            let c = u[a] as i64 + step;
+                            if c < 0 || c >= d[a] as i64 {
+                                continue;
+                            }
+                            let mut w = u;
+                            w[a] = c as u32;
+                            let j = self.index(w);
+                            if !self.wall[j] && label[j] == u32::MAX {
+                                label[j] = next;
+                                queue.push_back(w);
+                            }
+                        }
+                    }
+                }
+                next += 1;
+            }
+            label
+        }
+    }
+
+    /// A random scene: noise of varied density in some bricks, walls with few holes (closed
+    /// pockets), hollow boxes, and solid blocks with a winding channel carved through.
+    fn random_dense(rng: &mut Rng, min_nx: u32) -> Dense {
+        let nb = [rng.range(min_nx, 5), rng.range(1, 4), rng.range(1, 6)];
+        let mut g = Dense::new(nb);
+        let d = g.dims();
+        let density = [0.02, 0.1, 0.3, 0.5, 0.7][rng.range(0, 5) as usize];
+        let busy = rng.range(0, 4) as f64 / 4.0;
+        for bx in 0..nb[0] {
+            for by in 0..nb[1] {
+                for bz in 0..nb[2] {
+                    if !rng.chance(busy) {
+                        continue;
+                    }
+                    for x in 0..8 {
+                        for y in 0..8 {
+                            for z in 0..8 {
+                                if rng.chance(density) {
+                                    g.set([bx * 8 + x, by * 8 + y, bz * 8 + z], true);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Whole walls across the grid, with a few holes or none.
+        for _ in 0..rng.range(0, 3) {
+            let a = rng.range(0, 3) as usize;
+            let at = rng.range(0, d[a]);
+            let mut lo = [0; 3];
+            let mut hi = d.map(|n| n - 1);
+            lo[a] = at;
+            hi[a] = at;
+            g.fill_box(lo, hi, true);
+            for _ in 0..rng.range(0, 3) {
+                let mut v = [0; 3].map(|_| 0);
+                for (b, c) in v.iter_mut().enumerate() {
+                    *c = if b == a { at } else { rng.range(0, d[b]) };
+                }
+                g.set(v, false);
+            }
+        }
+        // Hollow boxes, sometimes with one hole.
+        for _ in 0..rng.range(0, 3) {
+            let lo: [u32; 3] = std::array::from_fn(|a| rng.range(0, d[a] - 2));
+            let hi: [u32; 3] = std::array::from_fn(|a| rng.range(lo[a] + 2, d[a].min(lo[a] + 14)));
+            g.fill_box(lo, hi, true);
+            g.fill_box(lo.map(|c| c + 1), hi.map(|c| c - 1), false);
+            if rng.chance(0.5) {
+                g.set([lo[0], (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2], false);
+            }
+        }
+        // A solid block with a random walk carved through it.
+        if rng.chance(0.5) {
+            let lo: [u32; 3] = std::array::from_fn(|a| rng.range(0, d[a] / 2));
+            let hi: [u32; 3] = std::array::from_fn(|a| rng.range(d[a] / 2, d[a]));
+            g.fill_box(lo, hi, true);
+            let mut v: [u32; 3] = std::array::from_fn(|a| rng.range(lo[a], hi[a] + 1));
+            for _ in 0..rng.range(20, 600) {
+                g.set(v, false);
+                let a = rng.range(0, 3) as usize;
+                let step = if rng.chance(0.5) { 1 } else { -1 };
+                let c = v[a] as i64 + step;
+                if c >= lo[a] as i64 && c <= hi[a] as i64 {
+                    v[a] = c as u32;
+                }
+            }
+        }
+        g.set([0, 0, 0], false);
+        g
+    }
+
+    /// Whether voxel `v` is outside by `o`'s public answers.
+    fn is_outside(o: &Outside, nb: [u32; 3], v: [u32; 3]) -> bool {
+        let (b, local) = split_voxel(v);
+        let key = ((b[0] * nb[1] + b[1]) * nb[2] + b[2]) as u64;
+        match o.outside_voxels_of(key) {
+            Some(m) => m.get(local),
+            None => o.empty_brick_is_outside(key),
+        }
+    }
+
+    /// The same partition of the open voxels, whatever the numbering.
+    fn assert_same_partition(g: &Dense, comps: &Components, case: u64) {
+        let dense = g.labels();
+        let classes = dense.iter().filter(|&&l| l != u32::MAX).max().map_or(0, |&m| m + 1);
+        assert_eq!(comps.count(), classes, "case {case}");
+        let mut to_comp = vec![u32::MAX; classes as usize];
+        let mut to_dense = vec![u32::MAX; classes as usize];
+        for v in g.voxels() {
+            let dl = dense[g.index(v)];
+            let cl = comps.label_of(v);
+            if dl == u32::MAX {
+                assert_eq!(cl, None, "case {case} voxel {v:?}");
+                continue;
+            }
+            let cl = cl.unwrap_or_else(|| panic!("case {case}: open voxel {v:?} unlabelled"));
+            assert!(cl < comps.count());
+            if to_comp[dl as usize] == u32::MAX {
+                to_comp[dl as usize] = cl;
+            }
+            if to_dense[cl as usize] == u32::MAX {
+                to_dense[cl as usize] = dl;
+            }
+            assert_eq!(to_comp[dl as usize], cl, "case {case} voxel {v:?}");
+            assert_eq!(to_dense[cl as usize], dl, "case {case} voxel {v:?}");
+        }
+    }
+
+    #[test]
+    fn label_matches_dense_bfs() {
+        for case in 0..300 {
+            let mut rng = Rng(case);
+            let g = random_dense(&mut rng, 1);
+            let surface = g.surface();
+            let comps = Components::label(g.nb, &surface);
+            assert_same_partition(&g, &comps, case);
+            // Deterministic.
+            let again = Components::label(g.nb, &surface);
+            assert_eq!(again.span_label, comps.span_label);
+            assert_eq!(again.part_label, comps.part_label);
+        }
+    }
+
+    #[test]
+    fn flood_matches_dense_bfs() {
+        for case in 0..200 {
+            let mut rng = Rng(1000 + case);
+            let g = random_dense(&mut rng, 1);
+            let o = Outside::flood(g.nb, &g.surface());
+            let dense = g.labels();
+            for v in g.voxels() {
+                let want = dense[g.index(v)] == dense[0];
+                assert_eq!(is_outside(&o, g.nb, v), want, "case {case} voxel {v:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn into_outside_matches_flood() {
+        for case in 0..300 {
+            let mut rng = Rng(2000 + case);
+            let g = random_dense(&mut rng, 1);
+            let surface = g.surface();
+            let flood = Outside::flood(g.nb, &surface);
+            let comps = Components::label(g.nb, &surface);
+            let seed = comps.label_of([0, 0, 0]);
+            assert!(seed.is_some());
+            let o = comps.into_outside(|l| Some(l) == seed);
+            assert_eq!(
+                o.enclosed_spans().collect::<Vec<_>>(),
+                flood.enclosed_spans().collect::<Vec<_>>()
+            );
+            let nbricks = g.nb.iter().map(|&n| n as u64).product::<u64>();
+            for key in 0..nbricks {
+                assert_eq!(o.outside_voxels_of(key), flood.outside_voxels_of(key), "case {case}");
+                if o.outside_voxels_of(key).is_none() {
+                    assert_eq!(
+                        o.empty_brick_is_outside(key),
+                        flood.empty_brick_is_outside(key),
+                        "case {case}"
+                    );
+                }
+            }
+            for i in 0..surface.len() {
+                assert_eq!(o.reached_voxels(i), flood.reached_voxels(i), "case {case}");
+            }
+            assert_eq!(o, flood, "case {case}");
+        }
+    }
+
+    /// Bricks `a..b` along x of a grid's surface list, keys re-based to the slab.
+    fn slab(nb: [u32; 3], surface: &[(u64, Mask512)], a: u32, b: u32) -> ([u32; 3], Vec<(u64, Mask512)>) {
+        let plane = nb[1] as u64 * nb[2] as u64;
+        let (lo, hi) = (a as u64 * plane, b as u64 * plane);
+        let s = surface
+            .iter()
+            .filter(|s| (lo..hi).contains(&s.0))
+            .map(|&(k, m)| (k - lo, m))
+            .collect();
+        ([b - a, nb[1], nb[2]], s)
+    }
+
+    /// Label each slab, unite across boundaries, and check every voxel against the whole
+    /// grid's flood.
+    fn check_slabs(g: &Dense, cuts: &[u32], case: &str) {
+        let nb = g.nb;
+        let surface = g.surface();
+        let flood = Outside::flood(nb, &surface);
+        let slabs: Vec<([u32; 3], Components)> = cuts
+            .windows(2)
+            .map(|w| {
+                let (snb, s) = slab(nb, &surface, w[0], w[1]);
+                (snb, Components::label(snb, &s))
+            })
+            .collect();
+        let mut offset = vec![0u32];
+        for s in &slabs {
+            offset.push(offset.last().unwrap() + s.1.count());
+        }
+        let mut uf = UnionFind::new(*offset.last().unwrap() as usize);
+        for k in 0..slabs.len() - 1 {
+            let (high, low) = (slabs[k].1.x_face(1), slabs[k + 1].1.x_face(0));
+            Components::unite_across(&high, &low, |a, b| uf.union(offset[k] + a, offset[k + 1] + b));
+        }
+        let seed = slabs[0].1.label_of([0, 0, 0]).expect("voxel (0, 0, 0) is open");
+        let root = uf.find(seed);
+        let mut enclosed = Vec::new();
+        for (k, (snb, comps)) in slabs.into_iter().enumerate() {
+            let outside: Vec<bool> = (0..comps.count()).map(|l| uf.find(offset[k] + l) == root).collect();
+            let o = comps.into_outside(|l| outside[l as usize]);
+            let base = cuts[k] as u64 * nb[1] as u64 * nb[2] as u64;
+            enclosed.extend(o.enclosed_spans().map(|(s, e)| (s + base, e + base)));
+            for v in g.voxels().filter(|v| (cuts[k] * 8..cuts[k + 1] * 8).contains(&v[0])) {
+                let local = [v[0] - cuts[k] * 8, v[1], v[2]];
+                assert_eq!(
+                    is_outside(&o, snb, local),
+                    is_outside(&flood, nb, v),
+                    "{case}: voxel {v:?}"
+                );
+            }
+        }
+        assert_eq!(enclosed, flood.enclosed_spans().collect::<Vec<_>>(), "{case}");
+    }
+
+    #[test]
+    fn slabs_match_whole_grid_flood() {
+        for case in 0..300 {
+            let mut rng = Rng(3000 + case);
+            let g = random_dense(&mut rng, 2);
+            let nx = g.nb[0];
+            let cuts = if nx >= 3 && rng.chance(0.5) {
+                let a = rng.range(1, nx - 1);
+                vec![0, a, rng.range(a + 1, nx), nx]
+            } else {
+                vec![0, rng.range(1, nx), nx]
+            };
+            check_slabs(&g, &cuts, &format!("case {case}, cuts {cuts:?}"));
+        }
+    }
+
+    /// The outside leaves slab 0 through open air, enters a solid block in slab 2, and comes back
+    /// through the block to a chamber in slab 0 that nothing in slab 0 or 1 connects to the air:
+    /// a single forward sweep over the slabs would leave that chamber inside.
+    #[test]
+    fn serpentine_through_slabs_matches_flood() {
+        let mut g = Dense::new([3, 3, 3]);
+        // The block fills brick y = 1 across the whole grid: air at y < 8 and at y >= 16.
+        g.fill_box([0, 8, 0], [23, 15, 23], true);
+        // Down into the block in slab 2, along it at y = 10 back to x = 3, into a chamber.
+        g.fill_box([20, 8, 4], [20, 10, 4], false);
+        g.fill_box([3, 10, 4], [20, 10, 4], false);
+        g.fill_box([1, 10, 3], [5, 13, 6], false);
+        // Sealed chambers in slabs 0 and 1.
+        g.fill_box([1, 10, 14], [5, 13, 20], false);
+        g.fill_box([9, 12, 12], [14, 14, 20], false);
+        let flood = Outside::flood(g.nb, &g.surface());
+        assert!(is_outside(&flood, g.nb, [2, 12, 5]));
+        assert!(!is_outside(&flood, g.nb, [2, 12, 15]));
+        assert!(!is_outside(&flood, g.nb, [10, 13, 15]));
+        assert!(!is_outside(&flood, g.nb, [0, 20, 0]));
+        // Slab 0 alone does not join its chamber to the air.
+        let (snb, s) = slab(g.nb, &g.surface(), 0, 1);
+        let c = Components::label(snb, &s);
+        assert_ne!(c.label_of([2, 12, 5]), c.label_of([0, 0, 0]));
+        check_slabs(&g, &[0, 1, 2, 3], "serpentine");
+        check_slabs(&g, &[0, 2, 3], "serpentine, two slabs");
+    }
+
+    /// The face holds, for each (y, z), the label of the face voxel there.
+    #[test]
+    fn x_face_matches_label_of() {
+        for case in 0..100 {
+            let mut rng = Rng(4000 + case);
+            let g = random_dense(&mut rng, 1);
+            let comps = Components::label(g.nb, &g.surface());
+            let d = g.dims();
+            for side in 0..2 {
+                let face = comps.x_face(side);
+                let x = if side == 0 { 0 } else { d[0] - 1 };
+                for y in 0..d[1] {
+                    for z in 0..d[2] {
+                        let item = face
+                            .column(y / 8)
+                            .iter()
+                            .find(|it| (it.z_range().0..it.z_range().1).contains(&(z / 8)));
+                        let got = match item {
+                            Some(FaceItem::Span { label, .. }) => Some(*label),
+                            Some(FaceItem::Brick { parts, .. }) => {
+                                let bit = 1u64 << ((z % 8) * 8 + y % 8);
+                                let hits: Vec<u32> = parts.iter().filter(|p| p.1 & bit != 0).map(|p| p.0).collect();
+                                assert!(hits.len() <= 1, "case {case}");
+                                hits.first().copied()
+                            }
+                            None => None,
+                        };
+                        assert_eq!(
+                            got,
+                            comps.label_of([x, y, z]),
+                            "case {case} side {side} voxel {:?}",
+                            [x, y, z]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Mostly empty space costs one item per column, not one per brick.
+    #[test]
+    fn x_face_is_compact() {
+        let mut g = Dense::new([2, 3, 5]);
+        g.set([0, 9, 20], true);
+        let comps = Components::label(g.nb, &g.surface());
+        assert_eq!(comps.count(), 1);
+        let face = comps.x_face(0);
+        let lens: Vec<usize> = (0..3).map(|by| face.column(by).len()).collect();
+        assert_eq!(lens, [1, 3, 1]);
+        assert_eq!(
+            face.column(1)[1],
+            FaceItem::Brick {
+                bz: 2,
+                parts: vec![(0, !(1u64 << (4 * 8 + 1)))]
+            }
+        );
+        assert_eq!(comps.x_face(1).items.len(), 3);
     }
 }

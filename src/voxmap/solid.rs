@@ -24,14 +24,24 @@ pub enum Solid {
     Scene(Outside),
     /// The union of what each object encloses.
     Objects(ObjectsInside),
+    /// The scene fill of one slab of the grid, from the slab's components (see
+    /// [`super::fill::Components`]): the [`Outside`] of a sub-grid whose brick keys are the
+    /// scene's minus `base`.
+    SceneSlab {
+        /// The slab's outside, in its own keys.
+        outside: Outside,
+        /// Scene key of the slab's key 0.
+        base: u64,
+    },
 }
 
 impl Solid {
-    /// The outside voxels of the scene's surface brick `index` (in the sorted surface list),
-    /// whose surface voxels are `surface`.
-    pub fn outside_voxels(&self, index: usize, key: u64, surface: &Mask512) -> Mask512 {
+    /// The outside voxels of the scene's surface brick `key`, whose surface voxels are
+    /// `surface`.
+    pub fn outside_voxels(&self, key: u64, surface: &Mask512) -> Mask512 {
         match self {
-            Solid::Scene(o) => o.reached_voxels(index),
+            Solid::Scene(o) => o.outside_voxels_of(key).unwrap_or(Mask512::EMPTY),
+            Solid::SceneSlab { outside, base } => outside.outside_voxels_of(key - base).unwrap_or(Mask512::EMPTY),
             Solid::Objects(o) => Mask512::FULL.and_not(&o.inside_of(key).or(surface)),
         }
     }
@@ -40,6 +50,7 @@ impl Solid {
     pub fn empty_brick_is_outside(&self, key: u64) -> bool {
         match self {
             Solid::Scene(o) => o.empty_brick_is_outside(key),
+            Solid::SceneSlab { outside, base } => outside.empty_brick_is_outside(key - base),
             Solid::Objects(o) => !o.is_fully_inside(key),
         }
     }
@@ -49,6 +60,7 @@ impl Solid {
     pub fn enclosed_spans(&self) -> Vec<(u64, u64)> {
         match self {
             Solid::Scene(o) => o.enclosed_spans().collect(),
+            Solid::SceneSlab { outside, base } => outside.enclosed_spans().map(|(s, e)| (s + base, e + base)).collect(),
             Solid::Objects(o) => o.full.iter().map(|r| (r.start, r.end)).collect(),
         }
     }

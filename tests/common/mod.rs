@@ -5,7 +5,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use vps::mesh::Triangle;
+use glam::DVec3;
+use vps::mesh::{Mesh, Triangle};
+use vps::shapes;
 
 /// Run the `vps` binary built for these tests.
 pub fn vps(args: &[&str]) -> Output {
@@ -52,4 +54,26 @@ pub fn write_obj(path: &Path, objects: &[(&str, Vec<Triangle>)]) {
         }
     }
     std::fs::write(path, s).unwrap();
+}
+
+/// A mesh of named objects, in order.
+pub fn assembly(parts: Vec<(&str, Vec<Triangle>)>) -> Mesh {
+    let mut it = parts.into_iter();
+    let (name, tris) = it.next().expect("at least one part");
+    let mut mesh = Mesh::from_triangles(name, tris).unwrap();
+    for (name, tris) in it {
+        mesh.push_object(name, tris).unwrap();
+    }
+    mesh
+}
+
+/// One part of the random assemblies: `kind` 0 a sphere, 1 a cube, 2 a hollow box (closed,
+/// walls 0.35 thick), 3 an open hemisphere; about `r` in size around `c`.
+pub fn random_part(kind: u8, c: DVec3, r: f64) -> Vec<Triangle> {
+    match kind {
+        0 => shapes::sphere(c, r, 8, 16),
+        1 => shapes::cuboid(c - r, c + r),
+        2 => shapes::hollow_box(c - 1.5 * r, c + 1.5 * r, 0.35),
+        _ => shapes::open_hemisphere(c, r, 6, 12),
+    }
 }

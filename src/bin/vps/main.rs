@@ -1,5 +1,6 @@
 //! `vps`: the command line. Thin: parse, call the library, print.
 
+mod bounded;
 mod haptics;
 mod scene;
 
@@ -81,6 +82,14 @@ enum Command {
         /// outside of the whole scene).
         #[arg(long, value_enum, default_value_t = FillArg::Objects)]
         fill: FillArg,
+        /// Generate out of core in at most this much memory (e.g. `4GiB`, `512MiB`, `2e9`):
+        /// the grid is done in slabs and intermediate data spills to disk, so any grid size
+        /// fits. The file is the same as without it.
+        #[arg(long, value_parser = parse_bytes)]
+        memory_limit: Option<u64>,
+        /// Directory for spill files with --memory-limit (default: the output's directory).
+        #[arg(long, requires = "memory_limit")]
+        tmp_dir: Option<PathBuf>,
         /// Print the summary as one JSON object.
         #[arg(long)]
         json: bool,
@@ -213,6 +222,8 @@ fn run(cli: Cli) -> Result<()> {
             output,
             navigation,
             fill,
+            memory_limit,
+            tmp_dir,
             json,
         } => {
             let mut params = params(voxel_size, layers, navigation.into())?;
@@ -220,9 +231,20 @@ fn run(cli: Cli) -> Result<()> {
                 FillArg::Objects => Fill::Objects,
                 FillArg::Scene => Fill::Scene,
             };
+            if let Some(limit) = memory_limit {
+                return bounded::run(&mesh, &params, &output, limit, tmp_dir.as_deref(), json);
+            }
             let mesh = load_mesh(&mesh)?;
             let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &output)?;
-            print_voxelize_summary(&output, &vm, &report, &write, secs, json);
+            let summary = Summary {
+                output: &output,
+                grid: vm.grid(),
+                layers: vm.layers(),
+                report: &report,
+                write: &write,
+                secs,
+            };
+            summary.print(json, None);
             Ok(())
         }
         Command::Pointshell {
@@ -337,6 +359,12 @@ fn voxelize_to_file(
     pb.set_message(format!("writing {}", output.display()));
     let write = write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
     pb.finish_and_clear();
+    warn_fill(&report, params, mesh);
+    Ok((vm, report, write, start.elapsed().as_secs_f64()))
+}
+
+/// Warn when nothing is inside, or when some objects add only their surface.
+fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) {
     if report.leaks {
         match params.fill {
             Fill::Scene => eprintln!(
@@ -358,70 +386,89 @@ fn voxelize_to_file(
             mesh.objects.len()
         );
     }
-    Ok((vm, report, write, start.elapsed().as_secs_f64()))
 }
 
-fn print_voxelize_summary(output: &Path, vm: &Voxmap, r: &VoxelizeReport, w: &WriteReport, secs: f64, json: bool) {
-    let g = vm.grid();
-    let c = vm.counts();
-    let sat_per_surface = r.nav.sat_tests as f64 / r.surface_voxels.max(1) as f64;
-    if json {
-        let j = json!({
-            "output": output.display().to_string(),
-            "triangles": r.triangles,
-            "degenerate_skipped": r.degenerate_skipped,
-            "voxel_size": g.voxel_size,
-            "dims": g.dims,
-            "grid_voxels": g.voxel_count(),
-            "layers": vm.layers(),
-            "surface_voxels": c.surface_voxels,
-            "inner_voxels": c.inner_voxels,
-            "bricks_stored": c.bricks_stored,
-            "sat_tests": r.nav.sat_tests,
-            "sat_tests_per_surface_voxel": sat_per_surface,
-            "leaks": r.leaks,
-            "open_objects": r.open_objects,
-            "file_bytes": w.file_bytes,
-            "seconds": secs,
-            "surface_seconds": r.t_surface.as_secs_f64(),
-            "fill_seconds": r.t_fill.as_secs_f64(),
-            "layers_seconds": r.t_layers.as_secs_f64(),
-            "peak_rss_bytes": peak_rss_bytes(),
-        });
-        println!("{j}");
-    } else {
-        println!("wrote {}", output.display());
-        println!(
-            "  triangles        {} ({} degenerate skipped)",
-            r.triangles, r.degenerate_skipped
-        );
-        println!(
-            "  grid             {} × {} × {} = {} voxels of {}",
-            g.dims[0],
-            g.dims[1],
-            g.dims[2],
-            g.voxel_count(),
-            g.voxel_size
-        );
-        println!(
-            "  surface voxels   {} ({:.2} SAT tests each)",
-            c.surface_voxels, sat_per_surface
-        );
-        println!(
-            "  inner voxels     {}{}",
-            c.inner_voxels,
-            if r.leaks { " (model leaks)" } else { "" }
-        );
-        println!("  bricks stored    {}", c.bricks_stored);
-        println!("  file             {} bytes", w.file_bytes);
-        println!(
-            "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3})",
-            r.t_surface.as_secs_f64(),
-            r.t_fill.as_secs_f64(),
-            r.t_layers.as_secs_f64()
-        );
-        if let Some(rss) = peak_rss_bytes() {
-            println!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);
+/// What `vps voxelize` prints.
+struct Summary<'a> {
+    output: &'a Path,
+    grid: &'a vps::grid::Grid,
+    layers: u8,
+    report: &'a VoxelizeReport,
+    write: &'a WriteReport,
+    secs: f64,
+}
+
+impl Summary<'_> {
+    /// Print, with `extra` fields (out-of-core figures) added to the JSON object and lines.
+    fn print(&self, json: bool, extra: Option<(serde_json::Value, Vec<String>)>) {
+        let (output, g, r, w, secs) = (self.output, self.grid, self.report, self.write, self.secs);
+        let c = w.counts;
+        let sat_per_surface = r.nav.sat_tests as f64 / r.surface_voxels.max(1) as f64;
+        if json {
+            let j = json!({
+                "output": output.display().to_string(),
+                "triangles": r.triangles,
+                "degenerate_skipped": r.degenerate_skipped,
+                "voxel_size": g.voxel_size,
+                "dims": g.dims,
+                "grid_voxels": g.voxel_count(),
+                "layers": self.layers,
+                "surface_voxels": c.surface_voxels,
+                "inner_voxels": c.inner_voxels,
+                "bricks_stored": c.bricks_stored,
+                "sat_tests": r.nav.sat_tests,
+                "sat_tests_per_surface_voxel": sat_per_surface,
+                "leaks": r.leaks,
+                "open_objects": r.open_objects,
+                "file_bytes": w.file_bytes,
+                "seconds": secs,
+                "surface_seconds": r.t_surface.as_secs_f64(),
+                "fill_seconds": r.t_fill.as_secs_f64(),
+                "layers_seconds": r.t_layers.as_secs_f64(),
+                "peak_rss_bytes": peak_rss_bytes(),
+            });
+            let mut j = j;
+            if let (Some((serde_json::Value::Object(more), _)), Some(obj)) = (&extra, j.as_object_mut()) {
+                obj.extend(more.clone());
+            }
+            println!("{j}");
+        } else {
+            println!("wrote {}", output.display());
+            println!(
+                "  triangles        {} ({} degenerate skipped)",
+                r.triangles, r.degenerate_skipped
+            );
+            println!(
+                "  grid             {} × {} × {} = {} voxels of {}",
+                g.dims[0],
+                g.dims[1],
+                g.dims[2],
+                g.voxel_count(),
+                g.voxel_size
+            );
+            println!(
+                "  surface voxels   {} ({:.2} SAT tests each)",
+                c.surface_voxels, sat_per_surface
+            );
+            println!(
+                "  inner voxels     {}{}",
+                c.inner_voxels,
+                if r.leaks { " (model leaks)" } else { "" }
+            );
+            println!("  bricks stored    {}", c.bricks_stored);
+            println!("  file             {} bytes", w.file_bytes);
+            println!(
+                "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3})",
+                r.t_surface.as_secs_f64(),
+                r.t_fill.as_secs_f64(),
+                r.t_layers.as_secs_f64()
+            );
+            if let Some(rss) = peak_rss_bytes() {
+                println!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);
+            }
+            for line in extra.map(|e| e.1).unwrap_or_default() {
+                println!("  {line}");
+            }
         }
     }
 }
@@ -586,7 +633,15 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     let out = out_dir.join("demo.vxm");
     let params = params(voxel_size, 5, Navigation::Auto)?;
     let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &out)?;
-    print_voxelize_summary(&out, &vm, &report, &write, secs, false);
+    let summary = Summary {
+        output: &out,
+        grid: vm.grid(),
+        layers: vm.layers(),
+        report: &report,
+        write: &write,
+        secs,
+    };
+    summary.print(false, None);
     let f = open(&out)?;
     let r = f.verify()?;
     println!("verified {} bricks", r.bricks_checked);
@@ -641,7 +696,7 @@ fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
         let c = contact(&voxmap, &shell, pose, &params)?;
         micros.push(c.micros);
         touching += (c.points_in_contact > 0) as usize;
-        if strongest.map_or(true, |s| c.force.length() > s.force.length()) {
+        if strongest.is_none_or(|s| c.force.length() > s.force.length()) {
             strongest = Some(c);
         }
     }
@@ -889,4 +944,36 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
         println!("  bytes            {}", h.file_bytes);
     }
     Ok(())
+}
+
+/// A byte count: a number with an optional unit, `k`/`M`/`G`/`T` (powers of 1000) or
+/// `KiB`/`MiB`/`GiB`/`TiB` (powers of 1024); `B` alone or no unit means bytes.
+fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
+    let t = text.trim();
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (num, unit) = (t[..split].trim(), t[split..].trim());
+    let n: f64 = num
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size: expected a number and a unit such as 4GiB"))?;
+    let scale: f64 = match unit.to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "k" | "kb" => 1e3,
+        "m" | "mb" => 1e6,
+        "g" | "gb" => 1e9,
+        "t" | "tb" => 1e12,
+        "kib" => 1024.0,
+        "mib" => 1024.0 * 1024.0,
+        "gib" => 1024.0 * 1024.0 * 1024.0,
+        "tib" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
+        _ => {
+            return Err(format!(
+                "'{text}': unknown unit '{unit}' (use B, MB, GB, MiB, GiB, ...)"
+            ))
+        }
+    };
+    let bytes = n * scale;
+    if !(bytes.is_finite() && (1.0..1.8e19).contains(&bytes)) {
+        return Err(format!("'{text}' is not a usable size"));
+    }
+    Ok(bytes as u64)
 }

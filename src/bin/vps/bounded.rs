@@ -1,0 +1,151 @@
+//! `vps voxelize --memory-limit`: the out-of-core path, with progress, Ctrl-C and cleanup.
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use vps::generate::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
+use vps::generate::{Fill, GenerateError, VoxelizeParams};
+use vps::storage::spill::clean_stale;
+
+use crate::{load_mesh, warn_fill, Summary};
+
+/// Set by Ctrl-C or SIGTERM; the run stops at its next chunk or slab and cleans up.
+static CANCEL: AtomicBool = AtomicBool::new(false);
+
+/// Voxelize `mesh_path` into `output` in at most `limit` bytes.
+pub fn run(
+    mesh_path: &Path,
+    params: &VoxelizeParams,
+    output: &Path,
+    limit: u64,
+    tmp_dir: Option<&Path>,
+    json: bool,
+) -> Result<()> {
+    let out_dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let spill_dir = tmp_dir.map(Path::to_path_buf).unwrap_or_else(|| out_dir.clone());
+    // What an interrupted run left: its spill directory and its unfinished output.
+    let mut dirs = vec![out_dir.clone()];
+    if spill_dir != out_dir {
+        dirs.push(spill_dir.clone());
+    }
+    for d in &dirs {
+        let stale = clean_stale(d).with_context(|| format!("cleaning stale spill files in {}", d.display()))?;
+        if stale.dirs + stale.files > 0 {
+            eprintln!(
+                "note: removed {} spill directories and {} unfinished outputs ({} bytes) left in {} by an interrupted run",
+                stale.dirs,
+                stale.files,
+                stale.bytes,
+                d.display()
+            );
+        }
+    }
+    ctrlc::set_handler(|| {
+        if CANCEL.swap(true, Ordering::SeqCst) {
+            // A second interrupt: stop now; the next run removes what is left.
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: stopping and removing temporary files (again to stop at once)");
+    })
+    .context("installing the Ctrl-C handler")?;
+
+    let mesh = load_mesh(mesh_path)?;
+    let start = Instant::now();
+    let pb = ProgressBar::new(0);
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {msg:<8} [{wide_bar}] {pos}/{len} {prefix} ETA {eta}",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
+    );
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb.set_message("binning triangles to chunks");
+    let phase = Mutex::new(String::new());
+    let progress = |name: &str, done: u64, total: u64| {
+        let mut p = phase.lock().unwrap_or_else(|e| e.into_inner());
+        if *p != name {
+            *p = name.to_string();
+            pb.set_length(total);
+            pb.set_position(0);
+            pb.reset_eta();
+            let unit = match (name, params.fill) {
+                ("surface", _) => "chunks",
+                ("fill", Fill::Objects) => "objects",
+                _ => "slabs",
+            };
+            pb.set_prefix(unit);
+            pb.set_message(name.to_string());
+        }
+        pb.set_position(done);
+    };
+    let opts = Bounded {
+        memory_limit: limit,
+        spill_dir: Some(spill_dir),
+        cancel: Some(&CANCEL),
+        progress: &progress,
+        max_slab_planes: None,
+    };
+    let result = voxelize_bounded(&mesh, params, output, &opts);
+    pb.finish_and_clear();
+    let report = match result {
+        Ok(r) => r,
+        Err(GenerateError::Cancelled) => {
+            eprintln!(
+                "interrupted: {} was not written; temporary files removed",
+                output.display()
+            );
+            std::process::exit(130);
+        }
+        Err(e) => return Err(e).with_context(|| format!("voxelizing into {}", output.display())),
+    };
+    warn_fill(&report.voxelize, params, &mesh);
+    let grid = report.grid.context("the report names its grid")?;
+    let mib = |b: u64| b as f64 / (1 << 20) as f64;
+    let extra_json = json!({
+        "memory_limit_bytes": limit,
+        "slabs": report.slabs,
+        "max_slab_planes": report.max_slab_planes,
+        "fixed_bytes": report.fixed_bytes,
+        "reserved_bytes": RESERVED_BYTES,
+        "max_slab_estimate_bytes": report.max_slab_estimate,
+        "spill_bytes": report.spill_bytes,
+        "surface_bricks": report.voxelize.surface_bricks,
+        "chunks": report.voxelize.chunks,
+    });
+    let lines = vec![
+        format!(
+            "out of core       limit {:.0} MiB: {} slabs of up to {} brick planes, largest estimate {:.0} MiB + fixed {:.0} MiB",
+            mib(limit),
+            report.slabs,
+            report.max_slab_planes,
+            mib(report.max_slab_estimate),
+            mib(report.fixed_bytes)
+        ),
+        format!(
+            "spill             {:.1} MiB ({} surface bricks in {} chunks), removed",
+            mib(report.spill_bytes),
+            report.voxelize.surface_bricks,
+            report.voxelize.chunks
+        ),
+    ];
+    let summary = Summary {
+        output,
+        grid: &grid,
+        layers: params.layers,
+        report: &report.voxelize,
+        write: &report.write,
+        secs: start.elapsed().as_secs_f64(),
+    };
+    summary.print(json, Some((extra_json, lines)));
+    Ok(())
+}
