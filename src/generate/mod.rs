@@ -43,7 +43,7 @@ pub enum GenerateError {
     #[error("cancelled")]
     Cancelled,
     /// The memory limit is too small for this mesh and grid.
-    #[error("memory limit too small: {what} need about {} MiB, the limit leaves {} MiB", need >> 20, limit >> 20)]
+    #[error("memory limit too small: {what} needs about {} MiB, and the limit leaves {} MiB for it", need >> 20, limit >> 20)]
     MemoryLimit {
         /// Bytes available for it.
         limit: u64,

@@ -143,7 +143,7 @@ pub fn voxelize_bounded(
         return Err(GenerateError::MemoryLimit {
             limit: opts.memory_limit,
             need: report.fixed_bytes,
-            what: "the mesh, its chunk bins and the reserve".into(),
+            what: "the mesh with its chunk bins and the reserve".into(),
         });
     };
     report.slab_budget = budget;
@@ -344,7 +344,7 @@ impl SlabEstimate<'_> {
                 return Err(GenerateError::MemoryLimit {
                     limit: budget,
                     need,
-                    what: format!("one brick plane (x = {a}) of the grid after the fixed bytes"),
+                    what: format!("one brick plane of the grid (x = {a}), the thinnest slab,"),
                 });
             }
             let mut b = a + 1;
