@@ -162,7 +162,7 @@ proptest! {
     #[test]
     fn random_assemblies_match(
         parts in proptest::collection::vec((0u8..4, -3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64, 0.6..2.0f64), 1..6),
-        layers in 1u8..11,
+        layers in 0u8..11,
         planes in 1u32..4,
         scene in any::<bool>(),
     ) {

@@ -217,17 +217,14 @@ pub fn voxelize_bounded(
 
     // Pass 2: the scene fill's components, united across slabs.
     let t = Instant::now();
-    let outside_labels = match params.fill {
-        Fill::Scene => Some(scene_outside(&slabs, nb, &reader, opts, &cancelled)?),
-        Fill::Objects => None,
+    let fill = match params.fill {
+        Fill::Scene => SlabFill::Scene(scene_outside(&slabs, nb, &reader, opts, &cancelled)?),
+        Fill::Objects => {
+            let o = ObjectColumns::new(&grid, mesh, opts.progress);
+            report.voxelize.open_objects = o.open;
+            SlabFill::Objects(o)
+        }
     };
-    let objects = match params.fill {
-        Fill::Objects => Some(ObjectColumns::new(&grid, mesh, opts.progress)),
-        Fill::Scene => None,
-    };
-    if let Some(o) = &objects {
-        report.voxelize.open_objects = o.open;
-    }
     report.voxelize.t_fill = t.elapsed();
 
     // Pass 3: layers and values, slab by slab, in key order, into the file.
@@ -235,6 +232,13 @@ pub fn voxelize_bounded(
     let mut writer = VoxmapWriter::create(output, grid, params.layers)?;
     let mut runs = RunList::default();
     let mut layer_bricks = 0usize;
+    // Time of each step of pass 3, summed over slabs, for `VPS_LOG=debug`.
+    let mut steps = [std::time::Duration::ZERO; 5];
+    let mut lap = Instant::now();
+    let mut mark = |i: usize| {
+        steps[i] += lap.elapsed();
+        lap = Instant::now();
+    };
     (opts.progress)("layers", 0, slabs.len() as u64);
     for (i, slab) in slabs.iter().enumerate() {
         if cancelled() {
@@ -242,7 +246,9 @@ pub fn voxelize_bounded(
         }
         let lo_plane = slab.start.saturating_sub(halo);
         let hi_plane = (slab.end + halo).min(nb[0]);
+        mark(4);
         let surface = reader.read(lo_plane..hi_plane)?;
+        mark(0);
         let base = lo_plane as u64 * plane;
         let local: Vec<(u64, Mask512)> = surface.iter().map(|&(k, m)| (k - base, m)).collect();
         let near = distance_layers([hi_plane - lo_plane, nb[1], nb[2]], &local, params.layers);
@@ -256,13 +262,14 @@ pub fn voxelize_bounded(
             .filter(|(k, _)| keys.contains(k))
             .collect();
         layer_bricks += near.len();
+        mark(1);
         let own = {
             let s = surface.partition_point(|b| b.0 < keys.start);
             let e = surface.partition_point(|b| b.0 < keys.end);
             &surface[s..e]
         };
-        let solid = match (&outside_labels, &objects) {
-            (Some(out), _) => {
+        let solid = match &fill {
+            SlabFill::Scene(out) => {
                 let slab_base = keys.start;
                 let sub: Vec<(u64, Mask512)> = own.iter().map(|&(k, m)| (k - slab_base, m)).collect();
                 let comps = Components::label([slab.end - slab.start, nb[1], nb[2]], &sub);
@@ -272,15 +279,16 @@ pub fn voxelize_bounded(
                     base: slab_base,
                 }
             }
-            (None, Some(o)) => Solid::Objects(o.inside(&grid, mesh, slab.clone())),
-            (None, None) => unreachable!("one fill is chosen"),
+            SlabFill::Objects(o) => Solid::Objects(o.inside(&grid, mesh, slab.clone())),
         };
+        mark(2);
         let bricks = signed_bricks(params.layers, near, own, &solid);
         let mut spans = solid.enclosed_spans();
         spans.sort_unstable();
         for (start, end) in spans {
             add_inside_span(start, end, &bricks, |s, e| runs.push(s, e));
         }
+        mark(3);
         writer.push_bricks(&bricks)?;
         // Every run but the last is final: the next slab may extend the last one.
         let keep = runs.runs.pop();
@@ -293,6 +301,15 @@ pub fn voxelize_bounded(
     for r in runs.runs.drain(..) {
         writer.push_inside_run(r)?;
     }
+    mark(4);
+    tracing::debug!(
+        "pass 3: read {:?}, layers {:?}, fill {:?}, signs and runs {:?}, compress and write {:?}",
+        steps[0],
+        steps[1],
+        steps[2],
+        steps[3],
+        steps[4]
+    );
     report.voxelize.layer_bricks = layer_bricks;
     report.write = writer.finish()?;
     report.voxelize.t_layers = t.elapsed();
@@ -420,6 +437,14 @@ impl SurfaceReader<'_> {
     }
 }
 
+/// What pass 3 needs to decide each slab's inside.
+enum SlabFill {
+    /// `--fill scene`: which labels of each slab's components are outside.
+    Scene(SlabLabels),
+    /// `--fill objects`: the closed objects, to cast their columns slab by slab.
+    Objects(ObjectColumns),
+}
+
 /// Which component labels of each slab are outside, after uniting them across slabs.
 struct SlabLabels {
     /// First global label of each slab.
@@ -532,46 +557,50 @@ impl ObjectColumns {
         }
     }
 
-    /// The inside of the columns of `slab` (brick planes): each object overlapping it, in
-    /// parallel, a brick plane of columns at a time so that the crossings stay small.
+    /// The inside of the columns of `slab` (brick planes), one (object, brick plane of
+    /// columns) at a time, in parallel: a large object spread over many planes keeps every
+    /// core busy, and the crossings held stay those of one plane per thread.
     fn inside(&self, grid: &Grid, mesh: &Mesh, slab: Range<u32>) -> ObjectsInside {
-        let parts: Vec<ObjectsInside> = self
+        let tris_of = |i: usize| &mesh.triangles[mesh.objects[i].triangles.clone()];
+        // (object, brick plane, triangle) for every plane of columns a triangle's x extent
+        // meets, with a voxel to spare.
+        let mut items: Vec<(u32, u32, u32)> = self
             .closed
             .par_iter()
             .filter(|(_, r)| r.start < slab.end && slab.start < r.end)
-            .map(|(i, r)| {
-                let tris = &mesh.triangles[mesh.objects[*i].triangles.clone()];
-                // Each triangle under every brick plane of columns its x extent meets (with a
-                // voxel to spare), so that each plane tests only its own.
+            .flat_map_iter(|(i, r)| {
                 let planes = slab.start.max(r.start)..slab.end.min(r.end);
-                let mut binned: Vec<(u32, u32)> = Vec::new();
-                for (k, t) in tris.iter().enumerate() {
+                tris_of(*i).iter().enumerate().flat_map(move |(k, t)| {
                     let xs = t.map(|p| grid.to_grid_units(p).x);
                     let (lo, hi) = (xs[0].min(xs[1]).min(xs[2]) - 1.0, xs[0].max(xs[1]).max(xs[2]) + 1.0);
-                    if !(lo.is_finite() && hi.is_finite()) {
-                        continue;
-                    }
-                    let b0 = ((lo.max(0.0) / 8.0) as u32).max(planes.start);
-                    let b1 = ((hi.max(0.0) / 8.0) as u32 + 1).min(planes.end);
-                    binned.extend((b0..b1).map(|b| (b, k as u32)));
-                }
-                binned.sort_unstable();
-                let mut out = ObjectsInside::default();
-                let mut own: Vec<Triangle> = Vec::new();
-                for group in binned.chunk_by(|a, b| a.0 == b.0) {
-                    own.clear();
-                    own.extend(group.iter().map(|&(_, k)| tris[k as usize]));
-                    let x0 = group[0].0 * 8;
-                    let x1 = (x0 + 8).min(grid.dims[0]);
-                    inside::add_closed_object_columns(grid, &own, x0..x1, &mut out);
-                }
-                out
+                    let (b0, b1) = if lo.is_finite() && hi.is_finite() {
+                        (
+                            ((lo.max(0.0) / 8.0) as u32).max(planes.start),
+                            ((hi.max(0.0) / 8.0) as u32 + 1).min(planes.end),
+                        )
+                    } else {
+                        (0, 0)
+                    };
+                    (b0..b1).map(move |b| (*i as u32, b, k as u32))
+                })
             })
             .collect();
-        let mut all = ObjectsInside::default();
-        for p in parts {
-            all.merge(p);
-        }
-        all.finish()
+        items.par_sort_unstable();
+        let groups: Vec<&[(u32, u32, u32)]> = items.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)).collect();
+        groups
+            .par_iter()
+            .fold(ObjectsInside::default, |mut out, group| {
+                let tris = tris_of(group[0].0 as usize);
+                let own: Vec<Triangle> = group.iter().map(|&(_, _, k)| tris[k as usize]).collect();
+                let x0 = group[0].1 * 8;
+                let x1 = (x0 + 8).min(grid.dims[0]);
+                inside::add_closed_object_columns(grid, &own, x0..x1, &mut out);
+                out
+            })
+            .reduce(ObjectsInside::default, |mut a, b| {
+                a.merge(b);
+                a
+            })
+            .finish()
     }
 }
