@@ -230,6 +230,7 @@ pub fn voxelize_bounded(
     // Pass 3: layers and values, slab by slab, in key order, into the file.
     let t = Instant::now();
     let mut writer = VoxmapWriter::create(output, grid, params.layers)?;
+    writer.spill_index_to(spill.path())?;
     let mut runs = RunList::default();
     let mut layer_bricks = 0usize;
     // Time of each step of pass 3, summed over slabs, for `VPS_LOG=debug`.

@@ -824,10 +824,66 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
 /// enough that a batch of payloads stays a few hundred kilobytes.
 const BATCH: usize = 4096;
 
+/// Index entries held in memory before they go to the spill file, when there is one (a few
+/// in unit tests, so that they cross many chunks).
+const INDEX_CHUNK: usize = if cfg!(test) { 5 } else { 1 << 16 };
+
+/// The brick index as it is written: in memory, or, for out-of-core runs, mostly in an
+/// anonymous spill file, so that it does not grow with the surface.
+#[derive(Default)]
+struct IndexStore {
+    /// Entries not yet spilled (every entry, without a spill file).
+    mem: Vec<IndexEntry>,
+    spill: Option<BufWriter<File>>,
+    spilled: u64,
+    last_key: Option<u64>,
+    /// CRC of every entry so far, in order.
+    crc: crc32fast::Hasher,
+}
+
+impl IndexStore {
+    fn len(&self) -> u64 {
+        self.spilled + self.mem.len() as u64
+    }
+
+    fn push(&mut self, e: IndexEntry) -> std::io::Result<()> {
+        self.last_key = Some(e.key);
+        self.crc.update(bytemuck::bytes_of(&e));
+        self.mem.push(e);
+        if let Some(spill) = self.spill.as_mut().filter(|_| self.mem.len() >= INDEX_CHUNK) {
+            spill.write_all(bytemuck::cast_slice(&self.mem))?;
+            self.spilled += self.mem.len() as u64;
+            self.mem.clear();
+        }
+        Ok(())
+    }
+
+    /// Call `f` on the entries in order, a chunk at a time.
+    fn for_each_chunk(
+        self,
+        mut f: impl FnMut(&[IndexEntry]) -> Result<(), StorageError>,
+        io: impl Fn(std::io::Error) -> StorageError,
+    ) -> Result<(), StorageError> {
+        if let Some(spill) = self.spill {
+            let mut file = spill.into_inner().map_err(|e| io(e.into_error()))?;
+            file.seek(SeekFrom::Start(0)).map_err(&io)?;
+            let mut buf: Vec<IndexEntry> = bytemuck::zeroed_vec(INDEX_CHUNK);
+            let mut left = self.spilled;
+            while left > 0 {
+                let n = left.min(INDEX_CHUNK as u64) as usize;
+                std::io::Read::read_exact(&mut file, bytemuck::cast_slice_mut(&mut buf[..n])).map_err(&io)?;
+                f(&buf[..n])?;
+                left -= n as u64;
+            }
+        }
+        f(&self.mem)
+    }
+}
+
 /// Writes a `.vxm` file as bricks arrive, in increasing key order.
 ///
 /// Payloads go straight to a temporary file beside the target; only the index (24 bytes a
-/// brick) and the runs stay in memory until [`VoxmapWriter::finish`] appends them, writes
+/// brick; see [`VoxmapWriter::spill_index_to`]) and the runs stay in memory until [`VoxmapWriter::finish`] appends them, writes
 /// the header at offset 0, syncs and renames the file into place. Dropping the writer
 /// without finishing, or any error, removes the temporary file and leaves the target as it
 /// was.
@@ -838,7 +894,7 @@ pub struct VoxmapWriter {
     layers: u8,
     brick_count: u64,
     pos: u64,
-    index: Vec<IndexEntry>,
+    index: IndexStore,
     runs: Vec<RunEntry>,
     surface_voxels: u64,
     inner_voxels: u64,
@@ -850,6 +906,7 @@ impl std::fmt::Debug for VoxmapWriter {
         f.debug_struct("VoxmapWriter")
             .field("path", &self.path)
             .field("bricks", &self.index.len())
+            .field("index_spilled", &self.index.spill.is_some())
             .field("runs", &self.runs.len())
             .finish_non_exhaustive()
     }
@@ -888,7 +945,7 @@ impl VoxmapWriter {
             layers,
             brick_count: grid.brick_count(),
             pos: 0,
-            index: Vec::new(),
+            index: IndexStore::default(),
             runs: Vec::new(),
             surface_voxels: 0,
             inner_voxels: 0,
@@ -897,6 +954,22 @@ impl VoxmapWriter {
         // Room for the header, which is written last, once the counts are known.
         writer.write(&[0u8; HEADER_BYTES])?;
         Ok(writer)
+    }
+
+    /// Keep the brick index in an anonymous temporary file in `dir` instead of memory, but
+    /// for 1.5 MB: for out-of-core runs, whose memory must not grow with the surface. Call
+    /// before the first brick; the file is the same either way.
+    pub fn spill_index_to(&mut self, dir: &Path) -> Result<(), StorageError> {
+        if self.index.len() > 0 {
+            return Err(self.invalid("spill_index_to after the first brick".into()));
+        }
+        let file = tempfile::tempfile_in(dir).map_err(|source| StorageError::Io {
+            action: "create the index spill file in",
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        self.index.spill = Some(BufWriter::with_capacity(1 << 20, file));
+        Ok(())
     }
 
     fn invalid(&self, what: String) -> StorageError {
@@ -957,7 +1030,9 @@ impl VoxmapWriter {
             crc: crc32fast::hash(payload),
         };
         self.write(payload)?;
-        self.index.push(entry);
+        self.index
+            .push(entry)
+            .map_err(self.io("write the index spill file for"))?;
         self.surface_voxels += surface;
         self.inner_voxels += inner;
         Ok(())
@@ -965,7 +1040,7 @@ impl VoxmapWriter {
 
     /// Append one brick; keys must strictly increase.
     pub fn push_brick(&mut self, key: u64, values: &BrickValues) -> Result<(), StorageError> {
-        self.check_brick(self.index.last().map(|e| e.key), key, values)?;
+        self.check_brick(self.index.last_key, key, values)?;
         let payload = encode_brick(&mut self.compressor, values).map_err(self.io("compress a brick for"))?;
         let (surface, inner) = tally(values);
         self.push_payload(key, &payload, surface, inner)
@@ -974,7 +1049,7 @@ impl VoxmapWriter {
     /// Append many bricks at once, compressing them in parallel; the file is the same as
     /// from pushing them one by one.
     pub fn push_bricks(&mut self, bricks: &[Brick]) -> Result<(), StorageError> {
-        let mut prev = self.index.last().map(|e| e.key);
+        let mut prev = self.index.last_key;
         for b in bricks {
             self.check_brick(prev, b.key, &b.values)?;
             prev = Some(b.key);
@@ -1024,18 +1099,6 @@ impl VoxmapWriter {
 
     /// Write the index, runs and header, sync, and rename the file into place.
     pub fn finish(mut self) -> Result<WriteReport, StorageError> {
-        let mut j = 0;
-        for e in &self.index {
-            while self.runs.get(j).is_some_and(|r| r.end <= e.key) {
-                j += 1;
-            }
-            if let Some(r) = self.runs.get(j).filter(|r| r.start <= e.key) {
-                return Err(self.invalid(format!(
-                    "brick key {} lies in inside run [{}, {})",
-                    e.key, r.start, r.end
-                )));
-            }
-        }
         // Runs are disjoint and within the grid, so this sum is at most brick_count.
         let inside_tile_bricks: u64 = self.runs.iter().map(|r| r.end - r.start).sum();
         let inner_voxels = inside_tile_bricks
@@ -1045,7 +1108,7 @@ impl VoxmapWriter {
         let counts = VoxmapCounts {
             surface_voxels: self.surface_voxels,
             inner_voxels,
-            bricks_stored: self.index.len() as u64,
+            bricks_stored: self.index.len(),
             inside_tile_bricks,
         };
 
@@ -1053,12 +1116,35 @@ impl VoxmapWriter {
         let index_offset = align8(self.pos).unwrap_or(self.pos);
         let pad = (index_offset - self.pos) as usize;
         self.write(&[0u8; 8][..pad])?;
+        // The index, checked against the runs on the way: no stored brick in an inside run.
         let index = std::mem::take(&mut self.index);
         let runs = std::mem::take(&mut self.runs);
-        let index_bytes: &[u8] = bytemuck::cast_slice(&index);
-        let runs_bytes: &[u8] = bytemuck::cast_slice(&runs);
-        self.write(index_bytes)?;
+        let index_crc = index.crc.clone().finalize();
+        let mut j = 0;
+        let path = self.path.clone();
+        index.for_each_chunk(
+            |chunk| {
+                for e in chunk {
+                    while runs.get(j).is_some_and(|r| r.end <= e.key) {
+                        j += 1;
+                    }
+                    if let Some(r) = runs.get(j).filter(|r| r.start <= e.key) {
+                        return Err(self.invalid(format!(
+                            "brick key {} lies in inside run [{}, {})",
+                            e.key, r.start, r.end
+                        )));
+                    }
+                }
+                self.write(bytemuck::cast_slice(chunk))
+            },
+            |source| StorageError::Io {
+                action: "read back the index spill file for",
+                path: path.clone(),
+                source,
+            },
+        )?;
         let runs_offset = self.pos;
+        let runs_bytes: &[u8] = bytemuck::cast_slice(&runs);
         self.write(runs_bytes)?;
 
         let mut h = RawHeader {
@@ -1082,7 +1168,7 @@ impl VoxmapWriter {
             index_offset,
             runs_offset,
             file_bytes: self.pos,
-            index_crc: crc32fast::hash(index_bytes),
+            index_crc,
             runs_crc: crc32fast::hash(runs_bytes),
             reserved: [0; 4],
             reserved2: 0,
@@ -1192,4 +1278,91 @@ pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteRepo
         w.push_inside_run(r)?;
     }
     w.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 40 bricks with varied values and inside runs between them, on a 4 × 4 × 8-brick grid.
+    fn bricks_and_runs() -> (Grid, Vec<Brick>, Vec<KeyRange>) {
+        let grid = Grid {
+            origin: DVec3::ZERO,
+            voxel_size: 1.0,
+            dims: [32, 32, 64],
+        };
+        let bricks: Vec<Brick> = (0..40u64)
+            .map(|i| {
+                let mut values = Box::new([-3i8; BRICK_VOXELS]);
+                for (j, v) in values.iter_mut().enumerate() {
+                    *v = ((i as usize * 7 + j) % 7) as i8 - 3;
+                }
+                Brick { key: i * 3, values }
+            })
+            .collect();
+        let runs = (0..39u64)
+            .map(|i| KeyRange {
+                start: i * 3 + 1,
+                end: i * 3 + 2 + i % 2,
+            })
+            .collect();
+        (grid, bricks, runs)
+    }
+
+    fn write(
+        path: &Path,
+        spill: Option<&Path>,
+        bricks: &[Brick],
+        runs: &[KeyRange],
+    ) -> Result<WriteReport, StorageError> {
+        let (grid, _, _) = bricks_and_runs();
+        let mut w = VoxmapWriter::create(path, grid, 2)?;
+        if let Some(dir) = spill {
+            w.spill_index_to(dir)?;
+        }
+        // Interleaved, as the out-of-core path writes them.
+        for (i, b) in bricks.iter().enumerate() {
+            w.push_brick(b.key, &b.values)?;
+            if let Some(&r) = runs.get(i) {
+                w.push_inside_run(r)?;
+            }
+        }
+        w.finish()
+    }
+
+    #[test]
+    fn a_spilled_index_gives_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, bricks, runs) = bricks_and_runs();
+        let (a, b) = (dir.path().join("a.vxm"), dir.path().join("b.vxm"));
+        let ra = write(&a, None, &bricks, &runs).unwrap();
+        let rb = write(&b, Some(dir.path()), &bricks, &runs).unwrap();
+        assert_eq!(ra, rb);
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        assert_eq!(VoxmapFile::open(&b).unwrap().verify().unwrap().bricks_checked, 40);
+        // The spill file is anonymous: nothing is left beside the outputs.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn a_brick_in_a_run_is_refused_with_a_spilled_index() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, bricks, mut runs) = bricks_and_runs();
+        // Brick 30 (key 90) falls in run 29, widened from [88, 90), pushed before it.
+        assert_eq!(runs[29], KeyRange { start: 88, end: 90 });
+        runs[29].end = 91;
+        let e = write(&dir.path().join("x.vxm"), Some(dir.path()), &bricks[..], &runs);
+        let msg = e.unwrap_err().to_string();
+        assert!(msg.contains("lies in inside run"), "{msg}");
+        assert!(!dir.path().join("x.vxm").exists());
+    }
+
+    #[test]
+    fn spilling_after_the_first_brick_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let (grid, bricks, _) = bricks_and_runs();
+        let mut w = VoxmapWriter::create(dir.path().join("y.vxm"), grid, 2).unwrap();
+        w.push_brick(bricks[0].key, &bricks[0].values).unwrap();
+        assert!(w.spill_index_to(dir.path()).is_err());
+    }
 }
