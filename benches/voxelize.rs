@@ -149,11 +149,8 @@ fn out_of_core(c: &mut Criterion) {
         });
         for planes in [None, Some(4)] {
             let opts = Bounded {
-                memory_limit: 4 << 30,
-                spill_dir: None,
-                cancel: None,
-                progress: &|_, _, _| {},
                 max_slab_planes: planes,
+                ..Bounded::new(4 << 30)
             };
             let name = match planes {
                 None => "bounded".to_string(),

@@ -31,34 +31,24 @@ fn memory_limit_gives_the_same_file_and_reports_its_plan() {
     let obj = synth(dir.path(), 20_000);
     let (a, b) = (dir.path().join("a.vxm"), dir.path().join("b.vxm"));
     for fill in ["objects", "scene"] {
-        let plain = json(&vps(&[
-            "voxelize",
-            p(&obj),
-            "--voxel-size",
-            "15",
-            "--fill",
-            fill,
-            "-o",
-            p(&a),
-            "--json",
-        ]));
+        let run = |out: &Path, more: &[&str]| {
+            let mut args = vec![
+                "voxelize",
+                p(&obj),
+                "--voxel-size",
+                "15",
+                "--fill",
+                fill,
+                "-o",
+                p(out),
+                "--json",
+            ];
+            args.extend_from_slice(more);
+            json(&vps(&args))
+        };
+        let plain = run(&a, &[]);
         let spill = tempfile::tempdir().unwrap();
-        let args = [
-            "voxelize",
-            p(&obj),
-            "--voxel-size",
-            "15",
-            "--fill",
-            fill,
-            "-o",
-            p(&b),
-            "--json",
-            "--memory-limit",
-            "300MiB",
-            "--tmp-dir",
-            p(spill.path()),
-        ];
-        let bounded = json(&vps(&args));
+        let bounded = run(&b, &["--memory-limit", "300MiB", "--tmp-dir", p(spill.path())]);
         assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "{fill}");
         assert_eq!(plain["surface_voxels"], bounded["surface_voxels"]);
         assert_eq!(bounded["memory_limit_bytes"], 300u64 << 20);

@@ -28,11 +28,8 @@ fn params(voxel_size: f64, layers: u8, fill: Fill) -> VoxelizeParams {
 
 fn bounded(slab_planes: Option<u32>, limit: u64) -> Bounded<'static> {
     Bounded {
-        memory_limit: limit,
-        spill_dir: None,
-        cancel: None,
-        progress: &|_, _, _| {},
         max_slab_planes: slab_planes,
+        ..Bounded::new(limit)
     }
 }
 
@@ -203,11 +200,10 @@ fn cancelling_leaves_no_output_and_no_spill() {
         }
     };
     let opts = Bounded {
-        memory_limit: 8 << 30,
         spill_dir: Some(spill.path().to_path_buf()),
         cancel: Some(&cancel),
         progress: &progress,
-        max_slab_planes: Some(1),
+        ..bounded(Some(1), 8 << 30)
     };
     let e = voxelize_bounded(&maze(true), &params(0.25, 3, Fill::Scene), &out, &opts).unwrap_err();
     assert!(matches!(e, GenerateError::Cancelled), "{e}");

@@ -155,11 +155,8 @@ fn real_assemblies_out_of_core_equal_in_memory() {
             let (vm, _) = voxelize(&mesh, &params).unwrap();
             write_voxmap(&a, &vm).unwrap();
             let opts = Bounded {
-                memory_limit: 8 << 30,
-                spill_dir: None,
-                cancel: None,
-                progress: &|_, _, _| {},
                 max_slab_planes: Some(2),
+                ..Bounded::new(8 << 30)
             };
             let r = voxelize_bounded(&mesh, &params, &b, &opts).unwrap();
             assert!(r.slabs > 4, "{name}: {} slabs", r.slabs);

@@ -165,7 +165,10 @@ pub fn voxelize_with(
     phase("fill");
     let t = Instant::now();
     let solid = match objects {
-        None => Solid::Scene(Outside::flood(grid.brick_dims(), &surface.bricks)),
+        None => Solid::Scene {
+            outside: Outside::flood(grid.brick_dims(), &surface.bricks),
+            base: 0,
+        },
         Some(inside) => Solid::Objects(inside),
     };
     report.t_fill = t.elapsed();

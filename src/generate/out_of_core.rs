@@ -35,7 +35,7 @@ use super::{
 use crate::grid::Grid;
 use crate::mesh::{Mesh, Triangle};
 use crate::storage::spill::SpillDir;
-use crate::storage::{StorageError, VoxmapWriter, WriteReport};
+use crate::storage::{directory_of, StorageError, VoxmapWriter, WriteReport};
 use crate::voxmap::fill::{Components, UnionFind, XFace};
 use crate::voxmap::layers::distance_layers;
 use crate::voxmap::solid::{ObjectsInside, Solid};
@@ -68,6 +68,20 @@ pub struct Bounded<'a> {
     /// Slabs at most this many brick planes thick, however much memory there is: the tests
     /// use it to cut small grids into many slabs. `None`: an eighth of the grid, at least 8.
     pub max_slab_planes: Option<u32>,
+}
+
+impl Bounded<'_> {
+    /// A run in at most `memory_limit` bytes: spill beside the output, no cancelling, no
+    /// progress, slabs as thick as memory allows.
+    pub fn new(memory_limit: u64) -> Self {
+        Bounded {
+            memory_limit,
+            spill_dir: None,
+            cancel: None,
+            progress: &|_, _, _| {},
+            max_slab_planes: None,
+        }
+    }
 }
 
 /// What an out-of-core run did, beyond the [`VoxelizeReport`].
@@ -148,14 +162,8 @@ pub fn voxelize_bounded(
     };
     report.slab_budget = budget;
 
-    let dir = match &opts.spill_dir {
-        Some(d) => d.clone(),
-        None => match output.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        },
-    };
-    let spill = SpillDir::create_in(&dir)?;
+    let dir = opts.spill_dir.as_deref().unwrap_or(directory_of(output));
+    let spill = SpillDir::create_in(dir)?;
 
     // Pass 1: the surface, chunk plane by chunk plane.
     let nav = params.navigation;
@@ -275,7 +283,7 @@ pub fn voxelize_bounded(
                 let sub: Vec<(u64, Mask512)> = own.iter().map(|&(k, m)| (k - slab_base, m)).collect();
                 let comps = Components::label([slab.end - slab.start, nb[1], nb[2]], &sub);
                 let outside = comps.into_outside(|l| out.is_outside(i, l));
-                Solid::SceneSlab {
+                Solid::Scene {
                     outside,
                     base: slab_base,
                 }

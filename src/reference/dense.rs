@@ -22,7 +22,7 @@ pub struct DenseGrid {
 impl DenseGrid {
     /// Index of voxel `v`.
     pub fn index(&self, v: [u32; 3]) -> usize {
-        (v[2] as usize * self.dims[1] as usize + v[1] as usize) * self.dims[0] as usize + v[0] as usize
+        index(self.dims, v)
     }
 
     /// Value of voxel `v`.
@@ -38,7 +38,7 @@ pub fn dense_surface(grid: &Grid, tris: &[SatTriangle]) -> Vec<bool> {
     let hi = d.map(|x| x as i64 - 1);
     for t in tris {
         touched_voxels(t, [0; 3], hi, Navigation::BoundingBox, &mut NavStats::default(), |v| {
-            s[(v[2] as usize * d[1] as usize + v[1] as usize) * d[0] as usize + v[0] as usize] = true;
+            s[index(d, v.map(|c| c as u32))] = true;
         });
     }
     s
@@ -81,7 +81,7 @@ pub fn dense_objects_voxmap(grid: &Grid, objects: &[&[Triangle]], layers: u8) ->
                 for z in 0..dims[2] {
                     let c = z as f64 + 0.5;
                     if zs.iter().filter(|&&zc| zc > c).count() % 2 == 1 {
-                        inside[(z as usize * dims[1] as usize + y as usize) * dims[0] as usize + x as usize] = true;
+                        inside[index(dims, [x, y, z])] = true;
                     }
                 }
             }
@@ -91,27 +91,37 @@ pub fn dense_objects_voxmap(grid: &Grid, objects: &[&[Triangle]], layers: u8) ->
     dense_layers(dims, &surface, &outside, layers)
 }
 
+/// Index of voxel `v` in a dense array of `dims` voxels, x fastest.
+fn index(dims: [u32; 3], v: [u32; 3]) -> usize {
+    (v[2] as usize * dims[1] as usize + v[1] as usize) * dims[0] as usize + v[0] as usize
+}
+
+/// The index of the voxel `d` away from voxel index `i`, if inside the grid.
+fn neighbour(dims: [u32; 3], i: usize, d: [i64; 3]) -> Option<usize> {
+    let (nx, ny) = (dims[0] as usize, dims[1] as usize);
+    let v = [i % nx, (i / nx) % ny, i / (nx * ny)];
+    let mut out = [0u32; 3];
+    for a in 0..3 {
+        let c = v[a] as i64 + d[a];
+        if c < 0 || c >= dims[a] as i64 {
+            return None;
+        }
+        out[a] = c as u32;
+    }
+    Some(index(dims, out))
+}
+
 /// Flood fill from voxel (0, 0, 0) through non-surface voxels, 6-connected: the outside.
 pub fn dense_outside(dims: [u32; 3], surface: &[bool]) -> Vec<bool> {
     let n = surface.len();
-    let (nx, ny, nz) = (dims[0] as i64, dims[1] as i64, dims[2] as i64);
-    let idx = |x: i64, y: i64, z: i64| ((z * ny + y) * nx + x) as usize;
-    let coords = |i: usize| {
-        let i = i as i64;
-        (i % nx, (i / nx) % ny, i / (nx * ny))
-    };
-
     let mut outside = vec![false; n];
     let mut stack = vec![0usize];
     outside[0] = true;
     while let Some(i) = stack.pop() {
-        let (x, y, z) = coords(i);
-        for (dx, dy, dz) in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
-            let (a, b, c) = (x + dx, y + dy, z + dz);
-            if a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz {
+        for d in [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]] {
+            let Some(j) = neighbour(dims, i, d) else {
                 continue;
-            }
-            let j = idx(a, b, c);
+            };
             if !surface[j] && !outside[j] {
                 outside[j] = true;
                 stack.push(j);
@@ -125,12 +135,6 @@ pub fn dense_outside(dims: [u32; 3], surface: &[bool]) -> Vec<bool> {
 /// 26 neighbours), signed by the outside, capped at the far values.
 pub fn dense_layers(dims: [u32; 3], surface: &[bool], outside: &[bool], layers: u8) -> DenseGrid {
     let n = surface.len();
-    let (nx, ny, nz) = (dims[0] as i64, dims[1] as i64, dims[2] as i64);
-    let idx = |x: i64, y: i64, z: i64| ((z * ny + y) * nx + x) as usize;
-    let coords = |i: usize| {
-        let i = i as i64;
-        (i % nx, (i / nx) % ny, i / (nx * ny))
-    };
     let far = layers as u32 + 1;
     let mut dist = vec![u32::MAX; n];
     let mut queue = VecDeque::new();
@@ -144,15 +148,12 @@ pub fn dense_layers(dims: [u32; 3], surface: &[bool], outside: &[bool], layers: 
         if dist[i] >= far {
             continue;
         }
-        let (x, y, z) = coords(i);
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
-                    let (a, b, c) = (x + dx, y + dy, z + dz);
-                    if a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz {
+                    let Some(j) = neighbour(dims, i, [dx, dy, dz]) else {
                         continue;
-                    }
-                    let j = idx(a, b, c);
+                    };
                     if dist[j] == u32::MAX {
                         dist[j] = dist[i] + 1;
                         queue.push_back(j);

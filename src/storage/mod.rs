@@ -1206,14 +1206,19 @@ fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
+/// The directory a file at `path` lives in: its parent, or `.` for a bare file name.
+pub fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
 /// A temporary file in the directory of `path`, so that renaming it over `path` is atomic.
 /// Temporary files are private by default; the finished file should be readable like any
 /// other the user creates (the umask still applies).
 pub(crate) fn temp_file_beside(path: &Path, prefix: &str) -> Result<tempfile::NamedTempFile, StorageError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = directory_of(path).to_path_buf();
     let mut builder = tempfile::Builder::new();
     builder.prefix(prefix).suffix(".tmp");
     #[cfg(unix)]
@@ -1256,15 +1261,8 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageError> {
 /// Sync the directory holding `path`, so a rename into it is durable.
 fn sync_parent(path: &Path) {
     #[cfg(unix)]
-    if let Some(dir) = path.parent() {
-        let dir = if dir.as_os_str().is_empty() {
-            Path::new(".")
-        } else {
-            dir
-        };
-        if let Ok(d) = File::open(dir) {
-            let _ = d.sync_all();
-        }
+    if let Ok(d) = File::open(directory_of(path)) {
+        let _ = d.sync_all();
     }
     #[cfg(not(unix))]
     let _ = path;

@@ -139,27 +139,21 @@ pub fn clean_stale(dir: &Path) -> Result<StaleReport, StorageError> {
         // `DirEntry::file_type` does not follow symbolic links: a link is neither.
         let Ok(kind) = entry.file_type() else { continue };
         let path = entry.path();
-        if kind.is_dir() && is_random_name(name, SPILL_PREFIX, "") {
-            match clean_spill_dir(&path) {
-                Ok(Some(bytes)) => {
-                    report.dirs += 1;
-                    report.bytes += bytes;
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
-            }
+        let (cleaned, count) = if kind.is_dir() && is_random_name(name, SPILL_PREFIX, "") {
+            (clean_spill_dir(&path), &mut report.dirs)
         } else if kind.is_file() && is_random_name(name, VXM_TMP_PREFIX, VXM_TMP_SUFFIX) {
-            match clean_vxm_tmp(&path) {
-                Ok(Some(bytes)) => {
-                    report.files += 1;
-                    report.bytes += bytes;
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
+            (clean_vxm_tmp(&path), &mut report.files)
+        } else {
+            continue;
+        };
+        match cleaned {
+            Ok(Some(bytes)) => {
+                *count += 1;
+                report.bytes += bytes;
+            }
+            Ok(None) => {}
+            Err(e) => {
+                first_error.get_or_insert(e);
             }
         }
     }

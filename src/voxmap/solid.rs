@@ -20,19 +20,17 @@ use super::KeyRange;
 /// The inside of a scene, from one of the two fills.
 #[derive(Clone, Debug)]
 pub enum Solid {
-    /// Flood fill from the outside of the whole scene.
-    Scene(Outside),
-    /// The union of what each object encloses.
-    Objects(ObjectsInside),
-    /// The scene fill of one slab of the grid, from the slab's components (see
-    /// [`super::fill::Components`]): the [`Outside`] of a sub-grid whose brick keys are the
+    /// Flood fill from the outside of the whole scene: the [`Outside`] of the whole grid
+    /// (`base` 0), or of one slab of it, out of core, a sub-grid whose brick keys are the
     /// scene's minus `base`.
-    SceneSlab {
-        /// The slab's outside, in its own keys.
+    Scene {
+        /// The outside, in its grid's own keys.
         outside: Outside,
-        /// Scene key of the slab's key 0.
+        /// Scene key of that grid's key 0.
         base: u64,
     },
+    /// The union of what each object encloses.
+    Objects(ObjectsInside),
 }
 
 impl Solid {
@@ -40,8 +38,7 @@ impl Solid {
     /// `surface`.
     pub fn outside_voxels(&self, key: u64, surface: &Mask512) -> Mask512 {
         match self {
-            Solid::Scene(o) => o.outside_voxels_of(key).unwrap_or(Mask512::EMPTY),
-            Solid::SceneSlab { outside, base } => outside.outside_voxels_of(key - base).unwrap_or(Mask512::EMPTY),
+            Solid::Scene { outside, base } => outside.outside_voxels_of(key - base).unwrap_or(Mask512::EMPTY),
             Solid::Objects(o) => Mask512::FULL.and_not(&o.inside_of(key).or(surface)),
         }
     }
@@ -49,8 +46,7 @@ impl Solid {
     /// Whether brick `key`, which holds no surface voxel of the scene, is outside.
     pub fn empty_brick_is_outside(&self, key: u64) -> bool {
         match self {
-            Solid::Scene(o) => o.empty_brick_is_outside(key),
-            Solid::SceneSlab { outside, base } => outside.empty_brick_is_outside(key - base),
+            Solid::Scene { outside, base } => outside.empty_brick_is_outside(key - base),
             Solid::Objects(o) => !o.is_fully_inside(key),
         }
     }
@@ -59,8 +55,7 @@ impl Solid {
     /// inside except for any surface they hold (the caller removes stored bricks).
     pub fn enclosed_spans(&self) -> Vec<(u64, u64)> {
         match self {
-            Solid::Scene(o) => o.enclosed_spans().collect(),
-            Solid::SceneSlab { outside, base } => outside.enclosed_spans().map(|(s, e)| (s + base, e + base)).collect(),
+            Solid::Scene { outside, base } => outside.enclosed_spans().map(|(s, e)| (s + base, e + base)).collect(),
             Solid::Objects(o) => o.full.iter().map(|r| (r.start, r.end)).collect(),
         }
     }

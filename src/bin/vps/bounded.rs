@@ -11,6 +11,7 @@ use serde_json::json;
 
 use vps::generate::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
 use vps::generate::{Fill, GenerateError, VoxelizeParams};
+use vps::storage::directory_of;
 use vps::storage::spill::clean_stale;
 
 use crate::{load_mesh, warn_fill, Summary};
@@ -27,10 +28,7 @@ pub fn run(
     tmp_dir: Option<&Path>,
     json: bool,
 ) -> Result<()> {
-    let out_dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
+    let out_dir = directory_of(output).to_path_buf();
     let spill_dir = tmp_dir.map(Path::to_path_buf).unwrap_or_else(|| out_dir.clone());
     // What an interrupted run left: its spill directory and its unfinished output.
     let mut dirs = vec![out_dir.clone()];
@@ -89,11 +87,10 @@ pub fn run(
         pb.set_position(done);
     };
     let opts = Bounded {
-        memory_limit: limit,
         spill_dir: Some(spill_dir),
         cancel: Some(&CANCEL),
         progress: &progress,
-        max_slab_planes: None,
+        ..Bounded::new(limit)
     };
     let result = voxelize_bounded(&mesh, params, output, &opts);
     pb.finish_and_clear();

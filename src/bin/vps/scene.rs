@@ -67,10 +67,7 @@ fn check_output(path: &Path) -> Result<()> {
     if !(name.ends_with(".obj") || name.ends_with(".obj.zst")) {
         bail!("output {} must end in .obj or .obj.zst", path.display());
     }
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = vps::storage::directory_of(path);
     if !dir.is_dir() {
         bail!(
             "output directory {} does not exist or is not a directory",
