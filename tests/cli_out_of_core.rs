@@ -128,16 +128,14 @@ fn start_and_wait_for_spill(dir: &Path, obj: &Path) -> std::process::Child {
     child
 }
 
+#[cfg(unix)]
 #[test]
 fn ctrl_c_leaves_no_output_and_no_spill() {
     let dir = tempfile::tempdir().unwrap();
     let obj = synth(dir.path(), 100_000);
     let child = start_and_wait_for_spill(dir.path(), &obj);
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
+    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(
