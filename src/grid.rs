@@ -66,14 +66,17 @@ impl Grid {
                 max: max.to_array(),
             });
         }
-        let brick_size = voxel_size * BRICK as f64;
-        let pad = pad as f64 * voxel_size;
-        let origin = ((min - DVec3::splat(pad)) / brick_size).floor() * brick_size;
+        // In units of the world lattice (voxel size 1, as `to_grid_units` computes), so the
+        // padding holds exactly where the voxelizer looks.
+        let brick = BRICK as f64;
+        let pad = pad as f64;
+        let first_brick = ((min / voxel_size - DVec3::splat(pad)) / brick).floor();
+        let origin = first_brick * brick * voxel_size;
         let mut dims = [0u32; 3];
         for a in 0..3 {
-            let far = max[a] + pad;
-            let bricks = ((far - origin[a]) / brick_size).floor() + 1.0;
-            let voxels = bricks * BRICK as f64;
+            let far = max[a] / voxel_size + pad;
+            let bricks = ((far - first_brick[a] * brick) / brick).floor() + 1.0;
+            let voxels = bricks * brick;
             if voxels.is_nan() || voxels > MAX_DIM as f64 {
                 return Err(GridError::TooLarge(voxels.min(u64::MAX as f64) as u64));
             }
@@ -127,7 +130,7 @@ impl Grid {
     ///
     /// A point on a face shared by two voxels belongs to the one with the larger index.
     pub fn voxel_of(&self, p: DVec3) -> Option<[u32; 3]> {
-        let g = (p - self.origin) / self.voxel_size;
+        let g = self.to_grid_units(p);
         let mut v = [0u32; 3];
         for a in 0..3 {
             let f = g[a].floor();
@@ -145,9 +148,21 @@ impl Grid {
     }
 
     /// World point `p` in grid units: voxel (i, j, k) is the box [i, i+1] × [j, j+1] × [k, k+1].
+    ///
+    /// Computed as `p / s − k` with `k` the origin in whole voxels, not as `(p − origin) / s`:
+    /// a point on the world lattice (`p / s` a whole number) then lands exactly on a voxel face
+    /// whatever the origin, so the surface depends only on the mesh and the voxel size, not on
+    /// the padding (`--layers`) or the slab that placed the origin.
     #[inline]
     pub fn to_grid_units(&self, p: DVec3) -> DVec3 {
-        (p - self.origin) / self.voxel_size
+        p / self.voxel_size - self.origin_voxels()
+    }
+
+    /// The origin in whole voxels of the world lattice. [`Grid::around`] puts the origin on
+    /// that lattice, and files keep it there.
+    #[inline]
+    pub fn origin_voxels(&self) -> DVec3 {
+        (self.origin / self.voxel_size).round()
     }
 }
 

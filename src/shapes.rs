@@ -88,6 +88,41 @@ pub fn open_hemisphere(center: DVec3, radius: f64, rings: u32, segments: u32) ->
         .collect()
 }
 
+/// A sphere with the cap above `cut_z` cut off: an open bowl whose rim is a circle.
+pub fn cut_sphere(center: DVec3, radius: f64, rings: u32, segments: u32, cut_z: f64) -> Vec<Triangle> {
+    sphere(center, radius, rings, segments)
+        .into_iter()
+        .filter(|t| t.iter().all(|v| v.z <= cut_z + 1e-12))
+        .collect()
+}
+
+/// A box with its top face (at `max.z`) missing: an open cup.
+pub fn open_box(min: DVec3, max: DVec3) -> Vec<Triangle> {
+    cuboid(min, max)
+        .into_iter()
+        .filter(|t| !t.iter().all(|v| v.z == max.z))
+        .collect()
+}
+
+/// A sphere cut into patches by the octant of each triangle's centre, each patch shrunk
+/// towards the sphere's centre by `gap` (a fraction of the radius) and moved apart: the
+/// cracks a CAD export leaves between surface patches, which no edge bridges.
+pub fn cracked_sphere(center: DVec3, radius: f64, rings: u32, segments: u32, gap: f64) -> Vec<Triangle> {
+    sphere(center, radius, rings, segments)
+        .into_iter()
+        .map(|t| {
+            let mid = (t[0] + t[1] + t[2]) / 3.0 - center;
+            let octant = DVec3::new(mid.x.signum(), mid.y.signum(), mid.z.signum());
+            t.map(|v| center + (v - center) * (1.0 - gap) + octant * (radius * gap * 0.5))
+        })
+        .collect()
+}
+
+/// The triangles with their winding reversed: every normal turned round.
+pub fn flipped(tris: &[Triangle]) -> Vec<Triangle> {
+    tris.iter().map(|t| [t[0], t[2], t[1]]).collect()
+}
+
 /// `count` small triangles of edge about `size`, scattered over the box `[0, extent]³` by a
 /// fixed-seed generator: a huge bounding box with little surface.
 pub fn scattered_triangles(count: usize, extent: f64, size: f64, seed: u64) -> Vec<Triangle> {

@@ -134,6 +134,32 @@ fn scene_fill_follows_air_that_winds_through_many_slabs() {
 fn objects_fill_of_the_maze_matches() {
     for layers in [2, 9] {
         same_file(&maze(true), &params(0.25, layers, Fill::Objects), Some(2));
+        same_file(&maze(true), &params(0.25, layers, Fill::Winding), Some(2));
+    }
+}
+
+/// Open, cracked and flipped parts whose inside ends in the air (interface voxels), across
+/// slabs of one brick plane.
+#[test]
+fn winding_fill_of_open_parts_matches() {
+    let mesh = assembly(vec![
+        ("bowl", shapes::cut_sphere(DVec3::new(0.1, 0.2, 0.3), 3.0, 24, 48, 1.0)),
+        (
+            "cup",
+            shapes::open_box(DVec3::new(3.5, -2.0, -2.0), DVec3::new(7.0, 2.0, 1.5)),
+        ),
+        (
+            "cracked",
+            shapes::cracked_sphere(DVec3::new(-5.0, 0.0, 0.0), 2.5, 16, 32, 0.02),
+        ),
+        (
+            "flipped",
+            shapes::flipped(&shapes::cut_sphere(DVec3::new(0.0, 6.0, 0.0), 2.0, 16, 32, 0.5)),
+        ),
+    ]);
+    for (layers, planes) in [(0, Some(1)), (3, Some(1)), (5, Some(2)), (9, None)] {
+        let (_, slabs) = same_file(&mesh, &params(0.2, layers, Fill::Winding), planes);
+        assert!(slabs > 1, "{slabs} slabs");
     }
 }
 
@@ -144,7 +170,7 @@ fn a_small_synthetic_car_matches_in_both_fills() {
         seed: 7,
     })
     .unwrap();
-    for fill in [Fill::Objects, Fill::Scene] {
+    for fill in [Fill::Winding, Fill::Objects, Fill::Scene] {
         for (layers, planes) in [(5, Some(1)), (5, None), (12, Some(2))] {
             let (_, slabs) = same_file(&mesh, &params(12.0, layers, fill), planes);
             assert!(slabs > 1, "{fill:?}: {slabs} slabs");
@@ -161,13 +187,13 @@ proptest! {
         parts in proptest::collection::vec((0u8..4, -3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64, 0.6..2.0f64), 1..6),
         layers in 0u8..11,
         planes in 1u32..4,
-        scene in any::<bool>(),
+        fill in 0u8..3,
     ) {
         let parts: Vec<(&str, Vec<Triangle>)> = parts
             .into_iter()
             .map(|(kind, x, y, z, r)| ("part", random_part(kind, DVec3::new(x, y, z), r)))
             .collect();
-        let fill = if scene { Fill::Scene } else { Fill::Objects };
+        let fill = [Fill::Scene, Fill::Objects, Fill::Winding][fill as usize];
         same_file(&assembly(parts), &params(0.2, layers, fill), Some(planes));
     }
 }

@@ -7,10 +7,13 @@
 //! so the cabin is outside while the wall between the skins is inside. Only closed objects (every
 //! edge shared by an even number of triangles) have an inside.
 
+use std::ops::Range;
+
 use rustc_hash::FxHashMap;
 
 use glam::{DVec2, DVec3};
 
+use crate::geometry::winding::vertical_crossing;
 use crate::grid::{Grid, BRICK_SHIFT};
 use crate::mesh::Triangle;
 use crate::voxmap::solid::ObjectsInside;
@@ -18,7 +21,7 @@ use crate::voxmap::solid::ObjectsInside;
 /// Lines are cast through each column's centre moved by this much (in voxels) along x and y, so
 /// that they miss the vertices and edges of meshes on round coordinates: a line exactly through
 /// an edge would count it once or twice depending on its neighbours.
-const NUDGE: DVec2 = DVec2::new(1.234_567e-6, 2.718_281e-6);
+pub(crate) const NUDGE: DVec2 = DVec2::new(1.234_567e-6, 2.718_281e-6);
 
 /// Whether every edge of `tris` is shared by an even number of triangles. Vertices closer than
 /// a billionth of the object's size count as one: generated and exported meshes repeat a
@@ -45,17 +48,28 @@ pub fn is_closed(tris: &[Triangle]) -> bool {
 /// Where the vertical line at `(x, y)` (grid units, before the nudge) crosses triangle `t`
 /// (grid units): its `z`, or `None` if it misses. The slow reference uses this too.
 pub fn column_crossing(t: &Triangle, x: f64, y: f64) -> Option<f64> {
-    let p = DVec2::new(x, y) + NUDGE;
-    let (a, b, c) = (t[0].truncate(), t[1].truncate(), t[2].truncate());
-    let area = (b - a).perp_dot(c - a);
-    if area == 0.0 {
+    vertical_crossing(t, x + NUDGE.x, y + NUDGE.y)
+}
+
+/// The voxel columns (x range, y range) whose line, the centre `(i + 0.5, j + 0.5)` moved by
+/// the nudge, may meet the box of triangle `g` (grid units), clipped to a grid of `dims`;
+/// `None` for a triangle with a non-finite vertex.
+///
+/// Rounded outwards, as [`column_crossing`] decides exactly. Rounding the centre itself would
+/// miss a triangle whose box starts between the centre and the nudged line (a vertex on a
+/// column centre), and a column missing one crossing of its pair loses its inside.
+pub(crate) fn column_ranges(g: &Triangle, dims: [u32; 3]) -> Option<(Range<u32>, Range<u32>)> {
+    let lo = g[0].min(g[1]).min(g[2]);
+    let hi = g[0].max(g[1]).max(g[2]);
+    if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }
-    // Barycentric weights of p; all of one sign as the area when p is inside.
-    let wa = (c - b).perp_dot(p - b) / area;
-    let wb = (a - c).perp_dot(p - c) / area;
-    let wc = (b - a).perp_dot(p - a) / area;
-    (wa > 0.0 && wb > 0.0 && wc > 0.0).then(|| wa * t[0].z + wb * t[1].z + wc * t[2].z)
+    let range = |l: f64, h: f64, nudge: f64, n: u32| {
+        let first = (l - 0.5 - nudge).floor().max(0.0);
+        let last = (h - 0.5 - nudge).ceil().min(n as f64 - 1.0);
+        (first as u32)..(last as i64 + 1).max(first as i64) as u32
+    };
+    Some((range(lo.x, hi.x, NUDGE.x, dims[0]), range(lo.y, hi.y, NUDGE.y, dims[1])))
 }
 
 /// Add the inside of the closed object `tris` (world units) to `out`.
@@ -79,24 +93,11 @@ pub fn add_closed_object_columns(
     let mut crossings: Vec<(u64, u8, f64)> = Vec::new();
     for t in tris {
         let g = t.map(|p| grid.to_grid_units(p));
-        let lo = g[0].min(g[1]).min(g[2]);
-        let hi = g[0].max(g[1]).max(g[2]);
-        // Columns whose line, the centre (i + 0.5, j + 0.5) moved by the nudge, may meet the
-        // triangle's box: rounded outwards, as `column_crossing` decides exactly. Rounding
-        // the centre itself would miss a triangle whose box starts between the centre and the
-        // nudged line (a vertex on a column centre), and a column missing one crossing of
-        // its pair loses its inside.
-        let range = |l: f64, h: f64, nudge: f64, n: u32| {
-            let first = (l - 0.5 - nudge).floor().max(0.0);
-            let last = (h - 0.5 - nudge).ceil().min(n as f64 - 1.0);
-            (first as u32)..(last as i64 + 1).max(first as i64) as u32
-        };
-        if !(lo.is_finite() && hi.is_finite()) {
+        let Some((xs, ys)) = column_ranges(&g, dims) else {
             continue;
-        }
-        let xs = range(lo.x, hi.x, NUDGE.x, dims[0]);
+        };
         for i in xs.start.max(x_columns.start)..xs.end.min(x_columns.end) {
-            for j in range(lo.y, hi.y, NUDGE.y, dims[1]) {
+            for j in ys.clone() {
                 if let Some(z) = column_crossing(&g, i as f64 + 0.5, j as f64 + 0.5) {
                     let bc = (i >> BRICK_SHIFT) as u64 * nb[1] as u64 + (j >> BRICK_SHIFT) as u64;
                     crossings.push((bc, ((j & 7) << 3 | (i & 7)) as u8, z));

@@ -10,6 +10,7 @@ pub mod navigate;
 pub mod out_of_core;
 pub mod pointshell;
 pub mod surface;
+pub mod winding;
 
 use std::time::{Duration, Instant};
 
@@ -21,6 +22,7 @@ use crate::grid::{Grid, GridError};
 use crate::mesh::Mesh;
 use crate::voxmap::fill::Outside;
 use crate::voxmap::layers::distance_layers;
+use crate::voxmap::mask::union_by_key;
 use crate::voxmap::solid::{ObjectsInside, Solid};
 use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, MAX_LAYERS};
 
@@ -75,10 +77,13 @@ pub enum Fill {
     Scene,
     /// Inside means inside at least one closed object (OBJ `o`/`g`), by the parity of its
     /// surfaces crossed (see [`inside`]); open objects add only their surface. Air enclosed by a
-    /// hollow body stays outside, so a part can move inside it: the default, as CAD assemblies
-    /// need.
-    #[default]
+    /// hollow body stays outside, so a part can move inside it.
     Objects,
+    /// Inside means inside at least one object by its generalized winding number, `|w| ≥ ½`
+    /// (see [`winding`]): the same as [`Fill::Objects`] on closed objects, and a solid inside
+    /// for open, cracked, flipped and duplicated ones too. The default, as real CAD needs.
+    #[default]
+    Winding,
 }
 
 impl Default for VoxelizeParams {
@@ -87,7 +92,7 @@ impl Default for VoxelizeParams {
             voxel_size: 1.0,
             layers: 5,
             navigation: Navigation::Auto,
-            fill: Fill::Objects,
+            fill: Fill::Winding,
         }
     }
 }
@@ -111,8 +116,12 @@ pub struct VoxelizeReport {
     pub chunks: usize,
     /// True when nothing is enclosed: the fill reached every non-surface voxel.
     pub leaks: bool,
-    /// With [`Fill::Objects`], objects that are not closed, so add only their surface.
+    /// Objects that are not closed: with [`Fill::Objects`] they add only their surface; with
+    /// [`Fill::Winding`], objects with boundary edges, whose inside the winding number decides.
     pub open_objects: usize,
+    /// With [`Fill::Winding`], voxels made surface where an open object's inside meets the
+    /// outside with no triangle between (see [`winding::add_object_inside`]).
+    pub interface_voxels: u64,
     /// Time to find the surface.
     pub t_surface: Duration,
     /// Time of the flood fill.
@@ -150,9 +159,10 @@ pub fn voxelize_with(
     let t = Instant::now();
     let (surface, objects) = match params.fill {
         Fill::Scene => (surface::mark_surface(&grid, &mesh.triangles, params.navigation), None),
-        Fill::Objects => {
-            let (surface, inside, open) = objects_surface(&grid, mesh, params.navigation);
+        Fill::Objects | Fill::Winding => {
+            let (surface, inside, open, interface) = objects_surface(&grid, mesh, params.navigation, params.fill);
             report.open_objects = open;
+            report.interface_voxels = interface;
             (surface, Some(inside))
         }
     };
@@ -177,44 +187,68 @@ pub fn voxelize_with(
     Ok((voxmap, report))
 }
 
-/// The surface of each object on its own, the inside of each closed one, and their unions (the
-/// scene's surface, sorted by key, and [`ObjectsInside`]). Objects are done in parallel; the
-/// union of the surfaces is the scene's surface, so no triangle is tested twice.
-fn objects_surface(grid: &Grid, mesh: &Mesh, nav: Navigation) -> (surface::SurfaceBricks, ObjectsInside, usize) {
-    let per_object: Vec<(surface::SurfaceBricks, ObjectsInside, bool)> = mesh
+/// The surface of each object on its own, the inside of each (by `fill`, objects or winding),
+/// and their unions (the scene's surface, sorted by key, and [`ObjectsInside`]), with the
+/// number of open objects. Objects are done in parallel; the union of the surfaces is the
+/// scene's surface, so no triangle is tested twice.
+fn objects_surface(
+    grid: &Grid,
+    mesh: &Mesh,
+    nav: Navigation,
+    fill: Fill,
+) -> (surface::SurfaceBricks, ObjectsInside, usize, u64) {
+    let surfaces: Vec<surface::SurfaceBricks> = mesh
+        .objects
+        .par_iter()
+        .map(|o| surface::mark_surface(grid, &mesh.triangles[o.triangles.clone()], nav))
+        .collect();
+    let mut stats = NavStats::default();
+    let mut chunks = 0;
+    let mut all: Vec<(u64, crate::voxmap::Mask512)> = Vec::new();
+    for s in surfaces {
+        stats += s.stats;
+        chunks += s.chunks;
+        all.extend(s.bricks);
+    }
+    let bricks = union_by_key(all);
+    let per_object: Vec<(ObjectsInside, bool, Vec<(u64, crate::voxmap::Mask512)>)> = mesh
         .objects
         .par_iter()
         .map(|o| {
             let tris = &mesh.triangles[o.triangles.clone()];
-            let s = surface::mark_surface(grid, tris, nav);
             let mut inside = ObjectsInside::default();
-            let closed = inside::is_closed(tris);
-            if closed {
-                inside::add_closed_object(grid, tris, &mut inside);
-            }
-            (s, inside, closed)
+            let mut interface = Vec::new();
+            let closed = if fill == Fill::Winding {
+                let w = winding::WindingObject::new(grid, tris);
+                winding::add_object_inside(grid, tris, &w, &bricks, 0..grid.dims[0], &mut inside, &mut interface);
+                !w.is_open()
+            } else {
+                let closed = inside::is_closed(tris);
+                if closed {
+                    inside::add_closed_object(grid, tris, &mut inside);
+                }
+                closed
+            };
+            (inside, closed, interface)
         })
         .collect();
-    let open = per_object.iter().filter(|o| !o.2).count();
-    let mut stats = NavStats::default();
-    let mut chunks = 0;
-    let mut all: Vec<(u64, crate::voxmap::Mask512)> = Vec::new();
+    let open = per_object.iter().filter(|o| !o.1).count();
     let mut inside = ObjectsInside::default();
-    for (s, i, _) in per_object {
-        stats += s.stats;
-        chunks += s.chunks;
-        all.extend(s.bricks);
+    let mut interface = Vec::new();
+    for (i, _, f) in per_object {
         inside.merge(i);
+        interface.extend(f);
     }
-    all.par_sort_unstable_by_key(|b| b.0);
-    let mut bricks: Vec<(u64, crate::voxmap::Mask512)> = Vec::with_capacity(all.len());
-    for (key, m) in all {
-        match bricks.last_mut() {
-            Some(last) if last.0 == key => last.1 = last.1.or(&m),
-            _ => bricks.push((key, m)),
-        }
-    }
-    (surface::SurfaceBricks { bricks, stats, chunks }, inside.finish(), open)
+    let interface = union_by_key(interface);
+    let interface_voxels = interface.iter().map(|m| m.1.count() as u64).sum();
+    let mut bricks = bricks;
+    bricks.extend(interface);
+    let surface = surface::SurfaceBricks {
+        bricks: union_by_key(bricks),
+        stats,
+        chunks,
+    };
+    (surface, inside.finish(), open, interface_voxels)
 }
 
 /// Layer and assemble a voxmap from its surface bricks (sorted by key) and its inside.
@@ -256,7 +290,7 @@ pub(crate) fn signed_bricks(
         .map(|(key, depth)| {
             let outside_mask = match surface.binary_search_by_key(&key, |s| s.0) {
                 Ok(i) => Some(solid.outside_voxels(key, &surface[i].1)),
-                Err(_) => None,
+                Err(_) => solid.outside_voxels_of_empty(key),
             };
             let brick_outside = outside_mask.is_none() && solid.empty_brick_is_outside(key);
             let mut values: Box<BrickValues> = bytemuck::allocation::cast_box(depth);

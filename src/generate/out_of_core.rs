@@ -29,6 +29,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::surface::{chunk_surface, ChunkBins, CHUNK_BRICKS};
+use super::winding;
 use super::{
     add_inside_span, inside, signed_bricks, Fill, GenerateError, NavStats, RunList, VoxelizeParams, VoxelizeReport,
 };
@@ -38,6 +39,7 @@ use crate::storage::spill::SpillDir;
 use crate::storage::{directory_of, StorageError, VoxmapWriter, WriteReport};
 use crate::voxmap::fill::{Components, UnionFind, XFace};
 use crate::voxmap::layers::distance_layers;
+use crate::voxmap::mask::union_by_key;
 use crate::voxmap::solid::{ObjectsInside, Solid};
 use crate::voxmap::{Mask512, MAX_LAYERS};
 
@@ -227,8 +229,8 @@ pub fn voxelize_bounded(
     let t = Instant::now();
     let fill = match params.fill {
         Fill::Scene => SlabFill::Scene(scene_outside(&slabs, nb, &reader, opts, &cancelled)?),
-        Fill::Objects => {
-            let o = ObjectColumns::new(&grid, mesh, opts.progress);
+        Fill::Objects | Fill::Winding => {
+            let o = ObjectColumns::new(&grid, mesh, params.fill, opts.progress);
             report.voxelize.open_objects = o.open;
             SlabFill::Objects(o)
         }
@@ -256,8 +258,30 @@ pub fn voxelize_bounded(
         let lo_plane = slab.start.saturating_sub(halo);
         let hi_plane = (slab.end + halo).min(nb[0]);
         mark(4);
-        let surface = reader.read(lo_plane..hi_plane)?;
-        mark(0);
+        // The objects' inside first: the winding fill's interface adds to the surface, here
+        // and in the halo, before the layers are measured from it. It looks one column beyond
+        // the halo, so it reads the surface one plane further.
+        let (mut surface, objects_inside) = match &fill {
+            SlabFill::Objects(o) => {
+                let wide = lo_plane.saturating_sub(1)..(hi_plane + 1).min(nb[0]);
+                let read = reader.read(wide)?;
+                mark(0);
+                let (inside, interface) = o.inside(&grid, mesh, &read, slab.clone(), lo_plane..hi_plane);
+                let keys = lo_plane as u64 * plane..hi_plane as u64 * plane;
+                let mut surface: Vec<(u64, Mask512)> = read.into_iter().filter(|b| keys.contains(&b.0)).collect();
+                if !interface.is_empty() {
+                    surface.extend(interface);
+                    surface = union_by_key(surface);
+                }
+                (surface, Some(inside))
+            }
+            SlabFill::Scene(_) => {
+                let surface = reader.read(lo_plane..hi_plane)?;
+                mark(0);
+                (surface, None)
+            }
+        };
+        mark(2);
         let base = lo_plane as u64 * plane;
         let local: Vec<(u64, Mask512)> = surface.iter().map(|&(k, m)| (k - base, m)).collect();
         let near = distance_layers([hi_plane - lo_plane, nb[1], nb[2]], &local, params.layers);
@@ -277,8 +301,9 @@ pub fn voxelize_bounded(
             let e = surface.partition_point(|b| b.0 < keys.end);
             &surface[s..e]
         };
-        let solid = match &fill {
-            SlabFill::Scene(out) => {
+        let solid = match (&fill, objects_inside) {
+            (_, Some(inside)) => Solid::Objects(inside),
+            (SlabFill::Scene(out), None) => {
                 let slab_base = keys.start;
                 let sub: Vec<(u64, Mask512)> = own.iter().map(|&(k, m)| (k - slab_base, m)).collect();
                 let comps = Components::label([slab.end - slab.start, nb[1], nb[2]], &sub);
@@ -288,7 +313,7 @@ pub fn voxelize_bounded(
                     base: slab_base,
                 }
             }
-            SlabFill::Objects(o) => Solid::Objects(o.inside(&grid, mesh, slab.clone())),
+            (SlabFill::Objects(_), None) => unreachable!("objects fills have an inside"),
         };
         mark(2);
         let bricks = signed_bricks(params.layers, near, own, &solid);
@@ -351,7 +376,7 @@ impl SlabEstimate<'_> {
         let near = ((wide.end - wide.start) as u64 * self.plane).min(with_halo * reach * reach * reach);
         let fill = own * FILL_BRICK_BYTES
             + match self.fill {
-                Fill::Objects => CROSSINGS_BYTES,
+                Fill::Objects | Fill::Winding => CROSSINGS_BYTES,
                 Fill::Scene => 0,
             };
         self.read_bytes + with_halo * SURFACE_BRICK_BYTES * 2 + near * NEAR_BRICK_BYTES + fill
@@ -527,61 +552,99 @@ fn scene_outside(
     Ok(SlabLabels { first, outside })
 }
 
-/// The closed objects of a mesh and their extents along x, for `--fill objects` slab by slab.
+/// The objects of a mesh that have an inside, and their extents along x, for `--fill objects`
+/// and `--fill winding` slab by slab.
 struct ObjectColumns {
-    /// Indices of the closed objects with the brick planes their triangles span.
-    closed: Vec<(usize, Range<u32>)>,
+    /// Index of each object with an inside, the brick planes its triangles span, and for the
+    /// winding fill what it needs of the object besides its triangles.
+    solid: Vec<(usize, Range<u32>, Option<winding::WindingObject>)>,
     /// Objects that are not closed.
     open: usize,
 }
 
 impl ObjectColumns {
-    fn new(grid: &Grid, mesh: &Mesh, progress: &(dyn Fn(&str, u64, u64) + Sync)) -> ObjectColumns {
+    fn new(grid: &Grid, mesh: &Mesh, fill: Fill, progress: &(dyn Fn(&str, u64, u64) + Sync)) -> ObjectColumns {
         let nbx = grid.brick_dims()[0];
         let (done, total) = (AtomicU64::new(0), mesh.objects.len() as u64);
         progress("fill", 0, total);
-        let per: Vec<Option<(usize, Range<u32>)>> = mesh
+        let per: Vec<(bool, Option<(usize, Range<u32>, Option<winding::WindingObject>)>)> = mesh
             .objects
             .par_iter()
             .enumerate()
             .map(|(i, o)| {
                 progress("fill", done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 let tris = &mesh.triangles[o.triangles.clone()];
-                if !inside::is_closed(tris) {
-                    return None;
+                let (closed, w) = if fill == Fill::Winding {
+                    let w = winding::WindingObject::new(grid, tris);
+                    (!w.is_open(), Some(w))
+                } else {
+                    (inside::is_closed(tris), None)
+                };
+                if !closed && w.is_none() {
+                    return (false, None);
                 }
-                let (lo, hi) = crate::mesh::bounds_of(tris);
-                let (lo, hi) = (grid.to_grid_units(lo).x, grid.to_grid_units(hi).x);
+                let (lo, hi) = match &w {
+                    // Open objects' inside may reach beyond their triangles.
+                    Some(w) => (w.columns().start as f64, w.columns().end as f64),
+                    None => {
+                        let (lo, hi) = crate::mesh::bounds_of(tris);
+                        (grid.to_grid_units(lo).x, grid.to_grid_units(hi).x)
+                    }
+                };
                 // Brick planes of the column centres the object spans, one more each side for
                 // rounding; a wider range only costs a few empty loops.
                 let b0 = ((lo - 1.0).floor().max(0.0) as u32 / 8).min(nbx);
                 let b1 = (((hi + 1.0).ceil().max(0.0) as u32).div_ceil(8) + 1).min(nbx);
-                Some((i, b0..b1))
+                (closed, Some((i, b0..b1, w)))
             })
             .collect();
-        let open = per.iter().filter(|p| p.is_none()).count();
+        let open = per.iter().filter(|p| !p.0).count();
         ObjectColumns {
-            closed: per.into_iter().flatten().collect(),
+            solid: per.into_iter().filter_map(|p| p.1).collect(),
             open,
         }
     }
 
-    /// The inside of the columns of `slab` (brick planes), one (object, brick plane of
-    /// columns) at a time, in parallel: a large object spread over many planes keeps every
-    /// core busy, and the crossings held stay those of one plane per thread.
-    fn inside(&self, grid: &Grid, mesh: &Mesh, slab: Range<u32>) -> ObjectsInside {
-        let tris_of = |i: usize| &mesh.triangles[mesh.objects[i].triangles.clone()];
-        // (object, brick plane, triangle) for every plane of columns a triangle's x extent
-        // meets, with a voxel to spare.
+    /// The inside of the columns of `slab` (brick planes), and the winding fill's interface
+    /// voxels (see [`winding::add_object_inside`]) of the columns of `halo` (the slab and the
+    /// planes around it), one (object, brick plane of columns) at a time, in parallel: a large
+    /// object spread over many planes keeps every core busy, and the crossings held stay those
+    /// of one plane per thread. `surface` is the surface of `halo`, which the winding fill
+    /// need not decide.
+    fn inside(
+        &self,
+        grid: &Grid,
+        mesh: &Mesh,
+        surface: &[(u64, Mask512)],
+        slab: Range<u32>,
+        halo: Range<u32>,
+    ) -> (ObjectsInside, Vec<(u64, Mask512)>) {
+        let tris_of = |s: usize| &mesh.triangles[mesh.objects[self.solid[s].0].triangles.clone()];
+        // Only open objects have an interface, so only they are done in the halo.
+        let planes_of = |r: &Range<u32>, w: &Option<winding::WindingObject>| {
+            let wanted = if w.as_ref().is_some_and(|w| w.is_open()) {
+                &halo
+            } else {
+                &slab
+            };
+            wanted.start.max(r.start)..wanted.end.min(r.end)
+        };
+        // (entry of `solid`, brick plane, triangle) for every plane of columns a triangle's x
+        // extent meets, with two voxels to spare (the winding fill looks one column beyond its
+        // own), and (entry, plane, NONE) for every plane, so that planes an open object's
+        // inside reaches beyond its triangles are done too.
+        const NONE: u32 = u32::MAX;
         let mut items: Vec<(u32, u32, u32)> = self
-            .closed
+            .solid
             .par_iter()
-            .filter(|(_, r)| r.start < slab.end && slab.start < r.end)
-            .flat_map_iter(|(i, r)| {
-                let planes = slab.start.max(r.start)..slab.end.min(r.end);
-                tris_of(*i).iter().enumerate().flat_map(move |(k, t)| {
+            .enumerate()
+            .filter(|(_, (_, r, w))| !planes_of(r, w).is_empty())
+            .flat_map_iter(|(i, (_, r, w))| {
+                let planes = planes_of(r, w);
+                let every = planes.clone().map(move |b| (i as u32, b, NONE));
+                let reaching = tris_of(i).iter().enumerate().flat_map(move |(k, t)| {
                     let xs = t.map(|p| grid.to_grid_units(p).x);
-                    let (lo, hi) = (xs[0].min(xs[1]).min(xs[2]) - 1.0, xs[0].max(xs[1]).max(xs[2]) + 1.0);
+                    let (lo, hi) = (xs[0].min(xs[1]).min(xs[2]) - 2.0, xs[0].max(xs[1]).max(xs[2]) + 2.0);
                     let (b0, b1) = if lo.is_finite() && hi.is_finite() {
                         (
                             ((lo.max(0.0) / 8.0) as u32).max(planes.start),
@@ -590,26 +653,48 @@ impl ObjectColumns {
                     } else {
                         (0, 0)
                     };
-                    (b0..b1).map(move |b| (*i as u32, b, k as u32))
-                })
+                    (b0..b1).map(move |b| (i as u32, b, k as u32))
+                });
+                every.chain(reaching)
             })
             .collect();
         items.par_sort_unstable();
         let groups: Vec<&[(u32, u32, u32)]> = items.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)).collect();
-        groups
+        let inside = groups
             .par_iter()
-            .fold(ObjectsInside::default, |mut out, group| {
-                let tris = tris_of(group[0].0 as usize);
-                let own: Vec<Triangle> = group.iter().map(|&(_, _, k)| tris[k as usize]).collect();
-                let x0 = group[0].1 * 8;
-                let x1 = (x0 + 8).min(grid.dims[0]);
-                inside::add_closed_object_columns(grid, &own, x0..x1, &mut out);
-                out
-            })
-            .reduce(ObjectsInside::default, |mut a, b| {
-                a.merge(b);
-                a
-            })
-            .finish()
+            .fold(
+                || (ObjectsInside::default(), Vec::new()),
+                |(mut out, mut interface), group| {
+                    let tris = tris_of(group[0].0 as usize);
+                    let own: Vec<Triangle> = group
+                        .iter()
+                        .filter(|&&(_, _, k)| k != NONE)
+                        .map(|&(_, _, k)| tris[k as usize])
+                        .collect();
+                    let x0 = group[0].1 * 8;
+                    let x1 = (x0 + 8).min(grid.dims[0]);
+                    let mut halo_only = ObjectsInside::default();
+                    let into = if slab.contains(&group[0].1) {
+                        &mut out
+                    } else {
+                        &mut halo_only
+                    };
+                    match &self.solid[group[0].0 as usize].2 {
+                        Some(w) => winding::add_object_inside(grid, &own, w, surface, x0..x1, into, &mut interface),
+                        None => inside::add_closed_object_columns(grid, &own, x0..x1, into),
+                    }
+                    (out, interface)
+                },
+            )
+            .reduce(
+                || (ObjectsInside::default(), Vec::new()),
+                |(mut a, mut fa), (b, fb)| {
+                    a.merge(b);
+                    fa.extend(fb);
+                    (a, fa)
+                },
+            );
+        let (inside, interface) = inside;
+        (inside.finish(), union_by_key(interface))
     }
 }

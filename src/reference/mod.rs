@@ -3,3 +3,4 @@
 pub mod closest;
 pub mod dense;
 pub mod sat;
+pub mod winding;

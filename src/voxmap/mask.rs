@@ -46,6 +46,19 @@ impl Face {
     }
 }
 
+/// Masks keyed by brick, sorted by key, with the masks of equal keys joined.
+pub fn union_by_key(mut masks: Vec<(u64, Mask512)>) -> Vec<(u64, Mask512)> {
+    masks.sort_unstable_by_key(|m| m.0);
+    let mut out: Vec<(u64, Mask512)> = Vec::with_capacity(masks.len());
+    for (key, m) in masks {
+        match out.last_mut() {
+            Some(last) if last.0 == key => last.1 = last.1.or(&m),
+            _ => out.push((key, m)),
+        }
+    }
+    out
+}
+
 impl Mask512 {
     /// No voxel.
     pub const EMPTY: Mask512 = Mask512([0; 8]);

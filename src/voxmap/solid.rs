@@ -43,6 +43,19 @@ impl Solid {
         }
     }
 
+    /// The outside voxels of brick `key`, which holds no surface voxel of the scene, when it is
+    /// partly inside (the winding fill's inside can end in the air); `None` when it is all on
+    /// one side, which [`Solid::empty_brick_is_outside`] tells.
+    pub fn outside_voxels_of_empty(&self, key: u64) -> Option<Mask512> {
+        match self {
+            Solid::Scene { .. } => None,
+            Solid::Objects(o) => {
+                let inside = o.inside_of(key);
+                (inside != Mask512::EMPTY && inside != Mask512::FULL).then(|| Mask512::FULL.and_not(&inside))
+            }
+        }
+    }
+
     /// Whether brick `key`, which holds no surface voxel of the scene, is outside.
     pub fn empty_brick_is_outside(&self, key: u64) -> bool {
         match self {

@@ -78,7 +78,7 @@ pub fn run(
             pb.reset_eta();
             let unit = match (name, params.fill) {
                 ("surface", _) => "chunks",
-                ("fill", Fill::Objects) => "objects",
+                ("fill", Fill::Objects | Fill::Winding) => "objects",
                 _ => "slabs",
             };
             pb.set_prefix(unit);

@@ -48,6 +48,7 @@ impl From<NavArg> for Navigation {
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum FillArg {
+    Winding,
     Objects,
     Scene,
 }
@@ -77,10 +78,12 @@ enum Command {
         /// How candidate voxels are chosen in each triangle's bounding box.
         #[arg(long, value_enum, default_value_t = NavArg::Auto)]
         navigation: NavArg,
-        /// Which voxels are inside: `objects` (inside a closed object; air a hollow body encloses
-        /// stays outside, as CAD assemblies need) or `scene` (the paper's flood fill from the
-        /// outside of the whole scene).
-        #[arg(long, value_enum, default_value_t = FillArg::Objects)]
+        /// Which voxels are inside: `winding` (inside an object by its generalized winding
+        /// number, |w| ≥ ½: open, cracked and flipped CAD parts get a solid inside; air a hollow
+        /// body encloses stays outside), `objects` (inside a closed object by parity; open
+        /// objects add only their surface) or `scene` (the paper's flood fill from the outside
+        /// of the whole scene).
+        #[arg(long, value_enum, default_value_t = FillArg::Winding)]
         fill: FillArg,
         /// Generate out of core in at most this much memory (e.g. `4GiB`, `512MiB`, `2e9`):
         /// the grid is done in slabs and intermediate data spills to disk, so any grid size
@@ -242,6 +245,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let mut params = params(voxel_size, layers, navigation.into())?;
             params.fill = match fill {
+                FillArg::Winding => Fill::Winding,
                 FillArg::Objects => Fill::Objects,
                 FillArg::Scene => Fill::Scene,
             };
@@ -388,17 +392,33 @@ fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) {
             ),
             Fill::Objects => eprintln!(
                 "warning: nothing is inside: {} of {} objects are not closed (an edge not shared by two triangles), \
-                 and the closed ones enclose no voxel centre; try --fill scene",
+                 and the closed ones enclose no voxel centre; try --fill winding",
+                report.open_objects,
+                mesh.objects.len()
+            ),
+            Fill::Winding => eprintln!(
+                "warning: nothing is inside: no voxel centre has a winding number of magnitude ½ or more \
+                 ({} of {} objects are open); the mesh may be sheets with no volume",
                 report.open_objects,
                 mesh.objects.len()
             ),
         }
-    } else if params.fill == Fill::Objects && report.open_objects > 0 {
-        eprintln!(
-            "note: {} of {} objects are not closed and add only their surface (--fill objects)",
-            report.open_objects,
-            mesh.objects.len()
-        );
+    } else if report.open_objects > 0 {
+        match params.fill {
+            Fill::Objects => eprintln!(
+                "note: {} of {} objects are not closed and add only their surface (--fill objects); \
+                 --fill winding gives them an inside",
+                report.open_objects,
+                mesh.objects.len()
+            ),
+            Fill::Winding => eprintln!(
+                "note: {} of {} objects are open (holes, cracks or triangles wound against their neighbours); \
+                 the winding fill decided their inside by winding number (|w| >= 1/2)",
+                report.open_objects,
+                mesh.objects.len()
+            ),
+            Fill::Scene => {}
+        }
     }
 }
 

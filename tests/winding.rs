@@ -1,0 +1,261 @@
+//! `--fill winding` against its slow reference (plain solid-angle sums at voxel centres) on
+//! generated polygon soups: bowls, open boxes, cracked shells, flipped and duplicated
+//! triangles, whole flipped objects, overlapping parts, a double-skinned body with a part
+//! inside; exactly the parity fill's answer on closed, consistently wound meshes; random soups
+//! by proptest.
+
+mod common;
+
+use glam::DVec3;
+use proptest::prelude::*;
+use vps::generate::{voxelize, Fill, VoxelizeParams};
+use vps::mesh::{Mesh, Triangle};
+use vps::reference::winding::WindingReference;
+use vps::shapes::{self, SplitMix};
+use vps::voxmap::Voxmap;
+
+use common::assembly;
+
+fn winding(mesh: &Mesh, voxel_size: f64, layers: u8) -> Voxmap {
+    fill(mesh, voxel_size, layers, Fill::Winding)
+}
+
+fn fill(mesh: &Mesh, voxel_size: f64, layers: u8, fill: Fill) -> Voxmap {
+    let params = VoxelizeParams {
+        voxel_size,
+        layers,
+        fill,
+        ..Default::default()
+    };
+    voxelize(mesh, &params).unwrap().0
+}
+
+fn objects(mesh: &Mesh) -> Vec<&[Triangle]> {
+    mesh.objects
+        .iter()
+        .map(|o| &mesh.triangles[o.triangles.clone()])
+        .collect()
+}
+
+/// Compare the winding fill with the reference at `samples` random voxel centres that are not
+/// surface voxels (a surface voxel has no side). Returns (agreeing, compared, reference inside).
+fn agreement(mesh: &Mesh, voxel_size: f64, samples: usize, seed: u64) -> (usize, usize, usize) {
+    let vm = winding(mesh, voxel_size, 2);
+    let grid = *vm.grid();
+    let reference = WindingReference::new(&grid, &objects(mesh));
+    let mut rng = SplitMix(seed);
+    let (mut same, mut n, mut inside) = (0, 0, 0);
+    while n < samples {
+        let v = grid.dims.map(|d| rng.below(d as u64) as u32);
+        let value = vm.value(v);
+        if value == 0 {
+            continue;
+        }
+        let want = reference.is_inside(v);
+        inside += want as usize;
+        same += ((value > 0) == want) as usize;
+        n += 1;
+    }
+    (same, n, inside)
+}
+
+fn assert_agrees(name: &str, mesh: &Mesh, voxel_size: f64) {
+    let (same, n, inside) = agreement(mesh, voxel_size, 6000, 17);
+    let rate = same as f64 / n as f64;
+    eprintln!("{name}: {same} of {n} sampled voxel centres agree ({inside} inside by the reference)");
+    assert!(rate >= 0.999, "{name}: only {same} of {n} agree");
+    assert!(
+        inside > n / 20,
+        "{name}: too little inside ({inside} of {n}) to test anything"
+    );
+}
+
+#[test]
+fn a_sphere_with_its_cap_cut_off_is_solid_up_to_the_cut() {
+    let bowl = shapes::cut_sphere(DVec3::ZERO, 10.0, 32, 64, 4.0);
+    let mesh = assembly(vec![("bowl", bowl)]);
+    assert_agrees("cut sphere", &mesh, 0.5);
+    // Below the cut and inside the sphere: inside; above the cut: outside.
+    let vm = winding(&mesh, 0.5, 2);
+    assert!(vm.value_at(DVec3::new(0.1, 0.2, 0.0)) > 0);
+    assert!(vm.value_at(DVec3::new(0.1, 0.2, -7.0)) > 0);
+    assert!(vm.value_at(DVec3::new(0.1, 0.2, 7.0)) < 0);
+}
+
+#[test]
+fn a_box_with_one_face_missing_is_solid() {
+    // Faces on voxel faces: the box's corners are multiples of the voxel size.
+    let cup = shapes::open_box(DVec3::ZERO, DVec3::new(10.0, 8.0, 6.0));
+    let mesh = assembly(vec![("cup", cup)]);
+    assert_agrees("open box", &mesh, 0.5);
+    let vm = winding(&mesh, 0.5, 2);
+    assert!(vm.value_at(DVec3::new(5.1, 4.1, 3.1)) > 0);
+}
+
+#[test]
+fn a_shell_with_cracks_between_its_patches_is_solid() {
+    let shell = shapes::cracked_sphere(DVec3::new(1.0, 2.0, 3.0), 10.0, 32, 64, 0.01);
+    let mesh = assembly(vec![("cracked", shell)]);
+    assert_agrees("cracked shell", &mesh, 0.5);
+}
+
+#[test]
+fn flipped_and_duplicated_triangles() {
+    let mut tris = shapes::sphere(DVec3::ZERO, 10.0, 24, 48);
+    let n = tris.len();
+    for (i, t) in tris.iter_mut().enumerate() {
+        if i % 11 == 0 {
+            *t = [t[0], t[2], t[1]];
+        }
+    }
+    let dups: Vec<Triangle> = tris.iter().step_by(5).copied().collect();
+    tris.extend(dups);
+    assert!(tris.len() > n);
+    let mesh = assembly(vec![("soup", tris)]);
+    assert_agrees("flipped and duplicated", &mesh, 0.5);
+}
+
+#[test]
+fn an_object_flipped_whole_still_counts() {
+    let bowl = shapes::flipped(&shapes::cut_sphere(DVec3::ZERO, 10.0, 32, 64, 4.0));
+    let ring = shapes::flipped(&shapes::torus(DVec3::new(25.0, 0.0, 0.0), 8.0, 3.0, 48, 24));
+    let mesh = assembly(vec![("bowl", bowl), ("ring", ring)]);
+    assert_agrees("flipped whole", &mesh, 0.5);
+    let vm = winding(&mesh, 0.5, 2);
+    assert!(vm.value_at(DVec3::new(0.1, 0.2, -5.0)) > 0, "the flipped bowl is solid");
+    assert!(
+        vm.value_at(DVec3::new(33.0, 0.1, 0.1)) > 0,
+        "the flipped torus is solid"
+    );
+}
+
+#[test]
+fn overlapping_and_interpenetrating_parts() {
+    let mesh = assembly(vec![
+        ("a", shapes::sphere(DVec3::ZERO, 8.0, 24, 48)),
+        ("b", shapes::cut_sphere(DVec3::new(6.0, 0.0, 0.0), 8.0, 24, 48, 5.0)),
+        (
+            "rod",
+            shapes::open_box(DVec3::new(-12.0, -1.5, -1.5), DVec3::new(18.0, 1.5, 1.5)),
+        ),
+    ]);
+    assert_agrees("overlapping parts", &mesh, 0.5);
+}
+
+#[test]
+fn a_double_skinned_body_keeps_its_cabin_outside_and_the_part_inside_solid() {
+    let body = shapes::hollow_box(DVec3::ZERO, DVec3::new(30.0, 20.0, 16.0), 1.5);
+    let part = shapes::cut_sphere(DVec3::new(15.0, 10.0, 8.0), 4.0, 24, 48, 10.0);
+    let mesh = assembly(vec![("body", body), ("part", part)]);
+    assert_agrees("double skin", &mesh, 0.5);
+    let vm = winding(&mesh, 0.5, 2);
+    assert!(vm.value_at(DVec3::new(5.1, 5.1, 5.1)) < 0, "the cabin is air");
+    assert!(vm.value_at(DVec3::new(0.76, 10.1, 8.1)) > 0, "the wall is solid");
+    assert!(vm.value_at(DVec3::new(15.1, 10.1, 7.0)) > 0, "the open part is solid");
+}
+
+/// On closed, consistently wound meshes that do not overlap themselves, the winding fill is
+/// the parity fill, voxel for voxel.
+#[test]
+fn closed_consistent_meshes_give_exactly_the_objects_fill() {
+    let mesh = assembly(vec![
+        ("sphere", shapes::sphere(DVec3::new(0.3, 0.1, 0.2), 9.0, 32, 64)),
+        ("torus", shapes::torus(DVec3::new(25.0, 0.0, 0.0), 8.0, 3.0, 64, 32)),
+        (
+            "block",
+            shapes::cuboid(DVec3::new(-10.0, 12.0, -4.0), DVec3::new(10.0, 20.0, 4.0)),
+        ),
+        (
+            "shell",
+            shapes::hollow_box(DVec3::new(14.0, 12.0, -6.0), DVec3::new(34.0, 26.0, 6.0), 1.0),
+        ),
+    ]);
+    for s in [0.5, 0.37] {
+        let a = winding(&mesh, s, 3);
+        let b = fill(&mesh, s, 3, Fill::Objects);
+        assert_eq!(a.grid(), b.grid());
+        assert_eq!(a.counts(), b.counts(), "voxel size {s}");
+        let d = a.grid().dims;
+        for z in 0..d[2] {
+            for y in 0..d[1] {
+                for x in 0..d[0] {
+                    assert_eq!(
+                        a.value([x, y, z]),
+                        b.value([x, y, z]),
+                        "voxel size {s}, voxel {x} {y} {z}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A random soup: pieces of a sphere, a box and a torus, some triangles dropped, flipped or
+/// doubled, some patches cracked apart, the whole moved by a random offset.
+fn soup(seed: u64) -> Mesh {
+    let mut rng = SplitMix(seed);
+    let mut parts = Vec::new();
+    for k in 0..1 + rng.below(3) {
+        let c = DVec3::new(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0), rng.range(-4.0, 4.0));
+        let base = match rng.below(4) {
+            0 => shapes::sphere(c, rng.range(3.0, 6.0), 12, 24),
+            1 => shapes::cuboid(c - rng.range(2.0, 5.0), c + rng.range(2.0, 5.0)),
+            2 => shapes::torus(c, 4.0, rng.range(1.2, 2.0), 24, 12),
+            _ => shapes::cracked_sphere(c, rng.range(3.0, 6.0), 12, 24, rng.range(0.0, 0.05)),
+        };
+        let cut = rng.range(-6.0, 8.0);
+        let (drop, flip, double) = (rng.unit() * 0.1, rng.unit() * 0.2, rng.unit() * 0.2);
+        let whole_flip = rng.below(4) == 0;
+        let mut tris = Vec::new();
+        for t in base {
+            if t.iter().any(|v| v.z > c.z + cut) || rng.unit() < drop {
+                continue;
+            }
+            let t = if whole_flip ^ (rng.unit() < flip) {
+                [t[0], t[2], t[1]]
+            } else {
+                t
+            };
+            tris.push(t);
+            if rng.unit() < double {
+                tris.push(t);
+            }
+        }
+        if !tris.is_empty() {
+            parts.push((format!("part{k}"), tris));
+        }
+    }
+    if parts.is_empty() {
+        parts.push(("cube".into(), shapes::cuboid(DVec3::ZERO, DVec3::ONE)));
+    }
+    let mut m = Mesh::default();
+    for (name, tris) in parts {
+        m.push_object(&name, tris).unwrap();
+    }
+    m
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    /// Every voxel of a small grid against the dense reference: values and layers agree on
+    /// at least 99.9 % of the voxels.
+    #[test]
+    fn random_soups_match_the_dense_reference(seed in any::<u64>(), s in 0.45f64..0.9, layers in 0u8..4) {
+        let mesh = soup(seed);
+        let vm = winding(&mesh, s, layers);
+        let grid = *vm.grid();
+        prop_assume!(grid.voxel_count() < 400_000);
+        let dense = WindingReference::new(&grid, &objects(&mesh)).dense_voxmap(&grid, layers);
+        let d = grid.dims;
+        let mut differ = 0usize;
+        for z in 0..d[2] {
+            for y in 0..d[1] {
+                for x in 0..d[0] {
+                    differ += (vm.value([x, y, z]) != dense.get([x, y, z])) as usize;
+                }
+            }
+        }
+        let n = grid.voxel_count() as usize;
+        prop_assert!(differ * 1000 <= n, "{differ} of {n} voxels differ");
+    }
+}
