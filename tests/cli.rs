@@ -199,7 +199,24 @@ fn open_mesh_warns_that_it_leaks() {
     let obj = dir.path().join("open.obj");
     write_obj(&obj, &[("cap", shapes::open_hemisphere(DVec3::ZERO, 5.0, 8, 24))]);
     let out = dir.path().join("open.vxm");
+    // The default winding fill makes the open bowl solid, and says the object was open.
     let o = vps(&["voxelize", p(&obj), "--voxel-size", "0.25", "-o", p(&out), "--json"]);
+    let j = json(&o);
+    assert!(j["inner_voxels"].as_u64().unwrap() > 1000, "{j}");
+    assert_eq!(j["open_objects"], 1);
+    assert!(stderr(&o).contains("winding fill"), "{}", stderr(&o));
+    // The parity fill adds only its surface, and says so.
+    let o = vps(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "0.25",
+        "--fill",
+        "objects",
+        "-o",
+        p(&out),
+        "--json",
+    ]);
     let j = json(&o);
     assert_eq!(j["inner_voxels"], 0);
     assert_eq!(j["open_objects"], 1);
@@ -228,11 +245,15 @@ fn huge_sparse_grid_stays_small_in_memory() {
     let obj = dir.path().join("scatter.obj");
     write_obj(&obj, &[("scatter", shapes::scattered_triangles(2000, 2400.0, 4.0, 7))]);
     let out = dir.path().join("scatter.vxm");
+    // The parity fill: the winding fill of 2,000 loose triangles spread over 10¹⁰ voxels
+    // still costs minutes (docs/PERFORMANCE.md).
     let j = json(&vps(&[
         "voxelize",
         p(&obj),
         "--voxel-size",
         "1",
+        "--fill",
+        "objects",
         "-o",
         p(&out),
         "--json",

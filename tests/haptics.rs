@@ -122,6 +122,48 @@ fn a_ball_pressed_into_a_slab_is_pushed_straight_out_harder_the_deeper_it_goes()
     assert!(deep > 10.0 * shallow, "deep {deep} vs shallow {shallow}");
 }
 
+/// The slab above as CAD exports it: its bottom face missing and every other face cut loose
+/// from its neighbours by a crack (each shrunk by 1 % towards its own centre).
+fn open_cracked_slab() -> Vec<Triangle> {
+    let (lo, hi) = (DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0));
+    let tris = shapes::cuboid(lo, hi);
+    let normal = |t: &Triangle| (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+    let mut out = Vec::new();
+    for face in tris.chunks(2) {
+        let n = normal(&face[0]);
+        if n.z < -0.5 {
+            continue;
+        }
+        let centre = face.iter().flatten().sum::<DVec3>() / 6.0;
+        out.extend(face.iter().map(|t| t.map(|v| centre + (v - centre) * 0.99)));
+    }
+    out
+}
+
+/// With the winding fill, an open, cracked body is solid: a ball pressed into it deeper and
+/// deeper is pushed out, never less, from first touch down to the deepest layer.
+#[test]
+fn a_ball_pressed_into_an_open_cracked_body_is_pushed_out_harder_the_deeper_it_goes() {
+    let p = pair(open_cracked_slab(), 0.2, shapes::sphere(DVec3::ZERO, 1.0, 24, 48), 0.08);
+    let mut last = 0.0;
+    let mut touched = false;
+    // First touch at depth 0; the deepest layer (5 layers of 0.2) at depth 1.0, and beyond.
+    for step in 0..=30 {
+        let depth = 0.05 * step as f64;
+        let c = query(&p, &at(DVec3::new(0.0, 0.0, 1.0 - depth)));
+        touched |= c.points_in_contact > 0;
+        if !touched {
+            continue;
+        }
+        assert!(c.force.z > 0.0, "depth {depth}: force {:?} does not push out (+z)", c.force);
+        let tangential = c.force.truncate().length();
+        assert!(tangential <= 0.03 * c.force.z, "depth {depth}: tangential {tangential}");
+        assert!(c.force.z >= last, "depth {depth}: force {} fell from {last}", c.force.z);
+        last = c.force.z;
+    }
+    assert!(touched && last > 0.0);
+}
+
 #[test]
 fn stiffness_scales_the_force_linearly() {
     let p = slab_and_ball(DVec3::ZERO);

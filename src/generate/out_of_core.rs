@@ -261,7 +261,7 @@ pub fn voxelize_bounded(
         // The objects' inside first: the winding fill's interface adds to the surface, here
         // and in the halo, before the layers are measured from it. It looks one column beyond
         // the halo, so it reads the surface one plane further.
-        let (mut surface, objects_inside) = match &fill {
+        let (surface, objects_inside) = match &fill {
             SlabFill::Objects(o) => {
                 let wide = lo_plane.saturating_sub(1)..(hi_plane + 1).min(nb[0]);
                 let read = reader.read(wide)?;

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::inside::{column_crossing, column_ranges, NUDGE};
-use crate::geometry::winding::{faces_down, hessian_bound, strip_solid_angle, strip_solid_angle_down};
+use crate::geometry::winding::{faces_down, AreaBound, hessian_bound, strip_solid_angle, strip_solid_angle_down};
 use crate::grid::{split_voxel, Grid, BRICK_SHIFT};
 use crate::mesh::Triangle;
 use crate::voxmap::mask::union_by_key;
@@ -40,7 +40,7 @@ pub const THRESHOLD: f64 = 0.5 - 1e-7;
 /// Slack added to certified ranges of `b`, far above the rounding error of its sum.
 const SLACK: f64 = 1e-9;
 
-/// Blocks start as tiles of this many voxel columns along x and y (whole z), done in
+/// Blocks start as tiles of this many voxels along x and y (and z for open objects), done in
 /// parallel; a multiple of the brick edge, so tiles never split a brick column.
 const TILE: i64 = 64;
 
@@ -63,6 +63,8 @@ struct BoundaryEdge {
 #[derive(Clone, Debug)]
 pub struct WindingObject {
     boundary: Vec<BoundaryEdge>,
+    /// Bounds `|w|` from the triangles' areas, in grid units: for open objects only.
+    area: AreaBound,
     /// First and one-past-last voxel, per axis, whose centre may be inside: within the
     /// object's box, or for an open object within a margin around it.
     lo: [i64; 3],
@@ -140,8 +142,15 @@ impl WindingObject {
             lo[a] = first;
             hi[a] = (last + 1).max(first);
         }
+        let area = if boundary.is_empty() {
+            AreaBound::default()
+        } else {
+            let g: Vec<Triangle> = tris.iter().map(|t| t.map(|p| grid.to_grid_units(p))).collect();
+            AreaBound::new(&g)
+        };
         WindingObject {
             boundary: boundary.into_iter().map(|(_, e)| e).collect(),
+            area,
             lo,
             hi,
         }
@@ -322,17 +331,24 @@ pub fn add_object_inside(
     };
     // Tiles on a fixed lattice of the grid, so every slab cuts them the same way.
     let mut tiles = Vec::new();
-    let mut x = reach.start.div_euclid(TILE) * TILE;
-    while x < reach.end {
-        let mut y = ys.start.div_euclid(TILE) * TILE;
-        while y < ys.end {
-            tiles.push(Block {
-                lo: [x.max(reach.start), y.max(ys.start), obj.lo[2]],
-                hi: [(x + TILE).min(reach.end), (y + TILE).min(ys.end), obj.hi[2]],
-            });
-            y += TILE;
+    let starts = |r: Range<i64>| (r.start.div_euclid(TILE)..(r.end + TILE - 1).div_euclid(TILE)).map(|t| t * TILE);
+    for x in starts(reach.clone()) {
+        for y in starts(ys.clone()) {
+            // Closed objects take one pass over whole columns; open ones start from cubes,
+            // which bounds fit more closely than tall columns.
+            let zs: Vec<i64> = if obj.is_open() {
+                starts(obj.lo[2]..obj.hi[2]).collect()
+            } else {
+                vec![obj.lo[2]]
+            };
+            for &z in &zs {
+                let z_end = if obj.is_open() { (z + TILE).min(obj.hi[2]) } else { obj.hi[2] };
+                tiles.push(Block {
+                    lo: [x.max(reach.start), y.max(ys.start), z.max(obj.lo[2])],
+                    hi: [(x + TILE).min(reach.end), (y + TILE).min(ys.end), z_end],
+                });
+            }
         }
-        x += TILE;
     }
     let counts: Vec<(Runs, u64, u64)> = tiles
         .into_par_iter()
@@ -467,9 +483,21 @@ impl Block {
         (lo, hi)
     }
 
-    /// Push the halves of a block no model could be made for.
+    /// Push the halves of a block no model could be made for, or its voxels when few.
     fn refine(&self, stack: &mut Vec<Block>) {
-        self.split([true; 3], stack)
+        if (0..3).map(|a| self.extent(a)).product::<i64>() > SMALL_BLOCK {
+            return self.split([true; 3], stack);
+        }
+        for x in self.lo[0]..self.hi[0] {
+            for y in self.lo[1]..self.hi[1] {
+                for z in self.lo[2]..self.hi[2] {
+                    stack.push(Block {
+                        lo: [x, y, z],
+                        hi: [x + 1, y + 1, z + 1],
+                    });
+                }
+            }
+        }
     }
 
     /// Push the halves of the block along the axes in `axes` whose extent is above one.
@@ -515,6 +543,12 @@ impl Context<'_> {
     }
 }
 
+/// Objects with more boundary edges than this build no model for blocks their triangles reach.
+const LONG_BOUNDARY: usize = 1024;
+
+/// Blocks of at most this many voxels that cannot get a model are done voxel by voxel.
+const SMALL_BLOCK: i64 = 8;
+
 /// When a model leaves at most this many voxels of its block undecided, they are done one by
 /// one: splitting the block would cost more models than that.
 const DIRECT_VOXELS: usize = 4;
@@ -523,13 +557,24 @@ const DIRECT_VOXELS: usize = 4;
 fn decide(ctx: &Context, block: Block, runs: &mut Runs, stack: &mut Vec<Block>) {
     let obj = ctx.obj;
     let (lo, hi) = block.samples();
+    // Far from a soup's triangles, their areas alone prove it outside: no model needed.
+    let (c, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+    if obj.is_open() && !obj.area.may_reach(c, radius, THRESHOLD) {
+        return;
+    }
+    // With a long boundary (loose triangles), models cost too much where triangles are: cut
+    // such blocks down to voxels, which the nearby triangles mostly decide alone.
+    if obj.boundary.len() > LONG_BOUNDARY && obj.area.touches(c, radius) {
+        block.refine(stack);
+        return;
+    }
     let columns = block.extent(0) > 1 || block.extent(1) > 1;
     // A strip inside the block makes `b` jump there: take the strips hanging down where those
     // hanging up cut the block, and where both do, cut across x and y until one column
     // remains, whose vertical line meets no strip.
     let down = obj.is_open() && columns && obj.strip_meets(lo, hi, false);
     if down && obj.strip_meets(lo, hi, true) {
-        block.split([true, true, false], stack);
+        block.refine(stack);
         return;
     }
     let single = !columns && block.extent(2) == 1;
@@ -537,6 +582,16 @@ fn decide(ctx: &Context, block: Block, runs: &mut Runs, stack: &mut Vec<Block>) 
         Linear::ZERO
     } else if single {
         if ctx.is_surface(block.lo[0], block.lo[1], block.lo[2]) {
+            return;
+        }
+        // The triangles near the voxel summed exactly and the rest bounded often decide it
+        // without the boundary sum, which is long for soups of loose triangles.
+        let (near, far) = obj.area.near_sum(lo);
+        if near.abs() + far < THRESHOLD {
+            return;
+        }
+        if near.abs() - far >= THRESHOLD {
+            push_run(runs, block.lo[0], block.lo[1], block.lo[2], block.hi[2]);
             return;
         }
         Linear {
@@ -547,7 +602,6 @@ fn decide(ctx: &Context, block: Block, runs: &mut Runs, stack: &mut Vec<Block>) 
             down: false,
         }
     } else {
-        let (c, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
         let Some((b, slope, h)) = obj.taylor(c, radius, down) else {
             block.refine(stack);
             return;

@@ -137,6 +137,160 @@ pub fn faces_down(t: &Triangle) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]).z < 0.0
 }
 
+/// A bound on `|w|` from areas: a triangle of area `A` whose points are all at least `d` from
+/// `p` subtends at most `A / d²`, so `|w(p)| ≤ Σ A / (4π d²)`. Triangles are grouped into a
+/// tree of bounding spheres (by Morton order of their centres), so far groups are bounded
+/// whole. It decides quickly that points far from a soup are outside it.
+#[derive(Clone, Debug, Default)]
+pub struct AreaBound {
+    /// Levels of spheres, leaves (one per triangle) first; node `i` of level `k + 1` holds
+    /// nodes `FANOUT·i ..` of level `k`.
+    levels: Vec<Vec<Sphere>>,
+    /// The triangles, in leaf order.
+    tris: Vec<Triangle>,
+}
+
+/// A bounding sphere and the area of the triangles within it.
+#[derive(Clone, Copy, Debug)]
+struct Sphere {
+    centre: DVec3,
+    radius: f64,
+    area: f64,
+}
+
+const FANOUT: usize = 8;
+
+impl AreaBound {
+    /// The tree over `tris`.
+    pub fn new(tris: &[Triangle]) -> AreaBound {
+        if tris.is_empty() {
+            return AreaBound::default();
+        }
+        let (lo, hi) = crate::mesh::bounds_of(tris);
+        let scale = (hi - lo).max_element().max(f64::MIN_POSITIVE);
+        let leaves: Vec<(u64, Sphere)> = tris
+            .iter()
+            .map(|t| {
+                let centre = (t[0] + t[1] + t[2]) / 3.0;
+                let radius = t.iter().map(|v| (*v - centre).length()).fold(0.0, f64::max);
+                let area = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+                let q = ((centre - lo) / scale * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
+                (morton(q.x as u64, q.y as u64, q.z as u64), Sphere { centre, radius, area })
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..leaves.len()).collect();
+        order.sort_unstable_by_key(|&i| leaves[i].0);
+        let tris: Vec<Triangle> = order.iter().map(|&i| tris[i]).collect();
+        let mut levels = vec![order.iter().map(|&i| leaves[i].1).collect::<Vec<_>>()];
+        while levels.last().is_some_and(|l| l.len() > 1) {
+            let below = levels.last().expect("a level");
+            let up: Vec<Sphere> = below
+                .chunks(FANOUT)
+                .map(|group| {
+                    let (mut a, mut b) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+                    for s in group {
+                        a = a.min(s.centre - s.radius);
+                        b = b.max(s.centre + s.radius);
+                    }
+                    let centre = (a + b) * 0.5;
+                    let radius = group.iter().map(|s| (s.centre - centre).length() + s.radius).fold(0.0, f64::max);
+                    Sphere {
+                        centre,
+                        radius,
+                        area: group.iter().map(|s| s.area).sum(),
+                    }
+                })
+                .collect();
+            levels.push(up);
+        }
+        AreaBound { levels, tris }
+    }
+
+    /// Whether some triangle's bounding sphere meets the ball of `radius` about `c`.
+    pub fn touches(&self, c: DVec3, radius: f64) -> bool {
+        let Some(top) = self.levels.len().checked_sub(1) else {
+            return false;
+        };
+        let mut stack = vec![(top, 0usize)];
+        while let Some((level, i)) = stack.pop() {
+            let s = self.levels[level][i];
+            if (s.centre - c).length() > s.radius + radius {
+                continue;
+            }
+            if level == 0 {
+                return true;
+            }
+            let n = self.levels[level - 1].len();
+            stack.extend((FANOUT * i..(FANOUT * (i + 1)).min(n)).map(|j| (level - 1, j)));
+        }
+        false
+    }
+
+    /// The winding number at `p` to within a bound: the triangles near `p` summed exactly, the
+    /// others bounded by their areas. Returns `(w_near, bound)`, with `|w − w_near| ≤ bound`.
+    pub fn near_sum(&self, p: DVec3) -> (f64, f64) {
+        let Some(top) = self.levels.len().checked_sub(1) else {
+            return (0.0, 0.0);
+        };
+        let (mut near, mut far) = (0.0, 0.0);
+        let mut stack = vec![(top, 0usize)];
+        while let Some((level, i)) = stack.pop() {
+            let s = self.levels[level][i];
+            let d = (s.centre - p).length() - s.radius;
+            if d > 0.0 && d > 2.0 * s.radius {
+                far += s.area / (d * d);
+            } else if level == 0 {
+                near += triangle_solid_angle(&self.tris[i], p);
+            } else {
+                let n = self.levels[level - 1].len();
+                stack.extend((FANOUT * i..(FANOUT * (i + 1)).min(n)).map(|j| (level - 1, j)));
+            }
+        }
+        let four_pi = 4.0 * std::f64::consts::PI;
+        (near / four_pi, far / four_pi)
+    }
+
+    /// Whether `Σ A / (4π d²)` over the triangles, with `d` the distance from the ball of
+    /// `radius` about `c`, may reach `limit`: `false` proves `|w| < limit` in the whole ball.
+    pub fn may_reach(&self, c: DVec3, radius: f64, limit: f64) -> bool {
+        let Some(top) = self.levels.len().checked_sub(1) else {
+            return false;
+        };
+        let budget = limit * 4.0 * std::f64::consts::PI;
+        let mut sum = 0.0;
+        let mut stack = vec![(top, 0usize)];
+        while let Some((level, i)) = stack.pop() {
+            let s = self.levels[level][i];
+            let d = (s.centre - c).length() - s.radius - radius;
+            // Bound a node whole when it is well apart from the ball, else open it.
+            if d > 0.0 && (level == 0 || d > 2.0 * s.radius) {
+                sum += s.area / (d * d);
+                if sum >= budget {
+                    return true;
+                }
+            } else if level == 0 {
+                return true;
+            } else {
+                let n = self.levels[level - 1].len();
+                stack.extend((FANOUT * i..(FANOUT * (i + 1)).min(n)).map(|j| (level - 1, j)));
+            }
+        }
+        false
+    }
+}
+
+/// Interleave the low 10 bits of three numbers (z-order).
+fn morton(x: u64, y: u64, z: u64) -> u64 {
+    let spread = |mut v: u64| {
+        v &= 0x3ff;
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    };
+    spread(x) | spread(y) << 1 | spread(z) << 2
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,6 +388,37 @@ mod tests {
             };
             let split = -above as f64 + strips / (4.0 * PI);
             assert!((direct - split).abs() < 1e-9, "{t:?} {p:?}: {direct} vs {split}");
+        }
+    }
+
+    /// The area bound holds: wherever it says `|w|` stays below a limit, the plain sum does.
+    #[test]
+    fn area_bound_holds() {
+        let mut rng = SplitMix(9);
+        let soup = crate::shapes::scattered_triangles(300, 10.0, 1.5, 4);
+        let mut bowl = crate::shapes::cut_sphere(DVec3::splat(5.0), 3.0, 12, 24, 6.0);
+        bowl.extend(soup);
+        let bound = AreaBound::new(&bowl);
+        let mut proved = 0;
+        for _ in 0..3000 {
+            let c = DVec3::new(rng.range(-5.0, 15.0), rng.range(-5.0, 15.0), rng.range(-5.0, 15.0));
+            let r = rng.range(0.0, 2.0);
+            for limit in [0.05, 0.5] {
+                if !bound.may_reach(c, r, limit) {
+                    proved += 1;
+                    for _ in 0..4 {
+                        let u = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                        let p = c + u.normalize_or_zero() * r * rng.unit();
+                        assert!(winding_number(&bowl, p).abs() < limit, "{p:?}, limit {limit}");
+                    }
+                }
+            }
+        }
+        assert!(proved > 1000, "{proved}");
+        for _ in 0..500 {
+            let p = DVec3::new(rng.range(-5.0, 15.0), rng.range(-5.0, 15.0), rng.range(-5.0, 15.0));
+            let (near, far) = bound.near_sum(p);
+            assert!((winding_number(&bowl, p) - near).abs() <= far + 1e-12, "{p:?}");
         }
     }
 

@@ -77,3 +77,30 @@ pub fn random_part(kind: u8, c: DVec3, r: f64) -> Vec<Triangle> {
         _ => shapes::open_hemisphere(c, r, 6, 12),
     }
 }
+
+/// Of `samples` pointshell points spread over the shell, how many have their two neighbours one
+/// `step` along and against the normal on opposite sides by the plain winding number (inside
+/// some object: `|w| ≥ ½`), and of those how many have the inside ahead of the normal.
+pub fn inward_normals(mesh: &Mesh, shell: &vps::pointshell::Pointshell, step: f64, samples: usize) -> (usize, usize) {
+    use rayon::prelude::*;
+    let objects: Vec<&[Triangle]> = mesh.objects.iter().map(|o| &mesh.triangles[o.triangles.clone()]).collect();
+    let inside = |p: DVec3| {
+        objects
+            .iter()
+            .any(|t| vps::geometry::winding::winding_number(t, p).abs() >= vps::generate::winding::THRESHOLD)
+    };
+    let every = (shell.len() / samples).max(1);
+    let picks: Vec<usize> = (0..shell.len()).step_by(every).collect();
+    let sides: Vec<Option<bool>> = picks
+        .par_iter()
+        .map(|&i| {
+            let p = shell.point(i);
+            let n = shell.normals[i].as_dvec3();
+            let (ahead, behind) = (inside(p + n * step), inside(p - n * step));
+            (ahead != behind).then_some(ahead)
+        })
+        .collect();
+    let decided = sides.iter().flatten().count();
+    let inward = sides.iter().flatten().filter(|&&a| a).count();
+    (decided, inward)
+}
