@@ -347,7 +347,7 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
         .collect();
     let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
     let (root, rest) = nodes.split_first_mut().expect("at least one node");
-    let mut buffer = vec![0.0f32; 6 * items.len()];
+    let mut buffer = vec![0.0f32; 7 * items.len()];
     let cols = Columns::new(&mut buffer, items.len());
     let shared = Shared {
         normals,
@@ -510,36 +510,42 @@ struct Fit {
 
 /// Columns of a node's points in the node's current item order, filled by the first pass of
 /// [`fit`] so that the later passes, which need only the coordinates, read them contiguously
-/// and in lanes. One buffer for the whole build, split like the items.
+/// and in lanes; and room for per-block extrema. One buffer for the whole build, split like
+/// the items.
 struct Columns<'a> {
     p: [&'a mut [f32]; 3],
     n: [&'a mut [f32]; 3],
+    /// As long as the node: room for the extrema of its blocks of [`BLOCK`] points, 7 numbers a
+    /// block, which fits for nodes of more than one block.
+    blocks: &'a mut [f32],
 }
 
 impl<'a> Columns<'a> {
+    /// Columns of `len` points: `buffer` must hold `7 * len` numbers.
     fn new(buffer: &'a mut [f32], len: usize) -> Columns<'a> {
-        let (p, n) = buffer.split_at_mut(3 * len);
-        let (px, p) = p.split_at_mut(len);
-        let (py, pz) = p.split_at_mut(len);
-        let (nx, n) = n.split_at_mut(len);
-        let (ny, nz) = n.split_at_mut(len);
+        let mut parts = buffer.chunks_exact_mut(len);
+        let mut next = || parts.next().expect("seven columns");
         Columns {
-            p: [px, py, pz],
-            n: [nx, ny, nz],
+            p: [next(), next(), next()],
+            n: [next(), next(), next()],
+            blocks: next(),
         }
     }
 
     fn split_at(self, mid: usize) -> (Columns<'a>, Columns<'a>) {
         let [px, py, pz] = self.p.map(|c| c.split_at_mut(mid));
         let [nx, ny, nz] = self.n.map(|c| c.split_at_mut(mid));
+        let blocks = self.blocks.split_at_mut(mid);
         (
             Columns {
                 p: [px.0, py.0, pz.0],
                 n: [nx.0, ny.0, nz.0],
+                blocks: blocks.0,
             },
             Columns {
                 p: [px.1, py.1, pz.1],
                 n: [nx.1, ny.1, nz.1],
+                blocks: blocks.1,
             },
         )
     }
@@ -547,7 +553,11 @@ impl<'a> Columns<'a> {
 
 /// Lanes of the column passes: independent running maxima, so that a pass is not one long
 /// chain of dependent comparisons and the compiler can keep them in vector registers.
-const LANES: usize = 8;
+const LANES: usize = 4;
+
+/// Points per block: the passes note each block's extrema, so that finding the first point at
+/// an extremum afterwards reads one block, not half the node.
+const BLOCK: usize = 64;
 
 /// Squared `f32` distance from `c`, exactly as `(p - c).length_squared()` computes it:
 /// `(dx² + dy²) + dz²`.
@@ -557,7 +567,7 @@ fn dist2(x: f32, y: f32, z: f32, c: Vec3) -> f32 {
     dx * dx + dy * dy + dz * dz
 }
 
-/// The largest of `a`, `b` when neither is NaN.
+/// The larger of `a`, `b` when neither is NaN.
 #[inline(always)]
 fn larger(a: f32, b: f32) -> f32 {
     if b > a {
@@ -567,83 +577,69 @@ fn larger(a: f32, b: f32) -> f32 {
     }
 }
 
-/// The largest squared distance from each of `centres` of the points `p` (columns), and 0 for
-/// no points. A maximum does not round, so the lanes find what one scan finds.
-fn farthest<const K: usize>(p: [&[f32]; 3], centres: [Vec3; K]) -> [f32; K] {
+/// The largest squared distance from `c` of the points `p` (columns), 0 for no points. A
+/// maximum does not round, so the lanes find what one scan finds. Not inlined: on its own the
+/// loop compiles to a few vector instructions per four points, inlined into [`fit`] it did not.
+#[inline(never)]
+fn farthest(p: [&[f32]; 3], c: Vec3) -> f32 {
     let [xs, ys, zs] = p;
     let n = xs.len().min(ys.len()).min(zs.len());
     let whole = n / LANES * LANES;
-    let mut far = [[0.0f32; LANES]; K];
+    let mut far = [0.0f32; LANES];
     let groups = xs[..whole]
         .chunks_exact(LANES)
         .zip(ys[..whole].chunks_exact(LANES))
         .zip(zs[..whole].chunks_exact(LANES));
     for ((x, y), z) in groups {
-        for (f, &c) in far.iter_mut().zip(&centres) {
-            for k in 0..LANES {
-                f[k] = larger(f[k], dist2(x[k], y[k], z[k], c));
-            }
-        }
-    }
-    std::array::from_fn(|j| {
-        let mut m = far[j].into_iter().fold(0.0, larger);
-        for i in whole..n {
-            m = larger(m, dist2(xs[i], ys[i], zs[i], centres[j]));
-        }
-        m
-    })
-}
-
-/// The first of the points `p` (columns) at squared distance `far2` from `c`: the point that the
-/// scan `if d² > far { far = d²; at = i }` keeps, when `far2` is the largest distance and is
-/// positive. Searching for it only when it is needed, and stopping there, costs less than
-/// carrying indices through the maximum's pass.
-fn first_at(p: [&[f32]; 3], c: Vec3, far2: f32) -> usize {
-    let [xs, ys, zs] = p;
-    let n = xs.len().min(ys.len()).min(zs.len());
-    let whole = n / LANES * LANES;
-    let groups = xs[..whole]
-        .chunks_exact(LANES)
-        .zip(ys[..whole].chunks_exact(LANES))
-        .zip(zs[..whole].chunks_exact(LANES));
-    for (g, ((x, y), z)) in groups.enumerate() {
-        let mut hit = false;
         for k in 0..LANES {
-            hit |= dist2(x[k], y[k], z[k], c) == far2;
-        }
-        if hit {
-            let k = (0..LANES)
-                .position(|k| dist2(x[k], y[k], z[k], c) == far2)
-                .expect("a lane hit");
-            return g * LANES + k;
+            far[k] = larger(far[k], dist2(x[k], y[k], z[k], c));
         }
     }
-    (whole..n)
-        .find(|&i| dist2(xs[i], ys[i], zs[i], c) == far2)
-        .expect("the largest distance is attained")
+    let mut m = far.into_iter().fold(0.0, larger);
+    for i in whole..n {
+        m = larger(m, dist2(xs[i], ys[i], zs[i], c));
+    }
+    m
 }
 
-/// The first index of `xs` whose value equals `v` (which one of them does).
-fn first_equal(xs: &[f32], v: f32) -> usize {
-    let whole = xs.len() / LANES * LANES;
-    for (g, x) in xs[..whole].chunks_exact(LANES).enumerate() {
-        let mut hit = false;
-        for &x in x {
-            hit |= x == v;
-        }
-        if hit {
-            return g * LANES + x.iter().position(|&x| x == v).expect("a lane hit");
-        }
+/// [`farthest`], noting each block's largest squared distance in `blocks`.
+fn farthest_by_block(p: [&[f32]; 3], c: Vec3, blocks: &mut [f32]) -> f32 {
+    let [xs, ys, zs] = p;
+    let blocks = xs.chunks(BLOCK).zip(ys.chunks(BLOCK)).zip(zs.chunks(BLOCK)).zip(blocks);
+    let mut m = 0.0f32;
+    for (((x, y), z), block) in blocks {
+        *block = farthest([x, y, z], c);
+        m = larger(m, *block);
     }
-    whole
-        + xs[whole..]
+    m
+}
+
+/// The first index of the points `p` (columns) at squared distance `far2` from `c`, `far2`
+/// being attained, and for nodes of more than one block, `blocks` their largest distances.
+/// This is the point that the scan `if d² > far { far = d²; at = i }` keeps when `far2` is the
+/// largest distance and positive; looking for it only when it is needed costs less than
+/// carrying indices through the maximum's pass.
+fn first_at(p: [&[f32]; 3], c: Vec3, far2: f32, blocks: &[f32]) -> usize {
+    let len = p[0].len();
+    let b = if len > BLOCK {
+        blocks
             .iter()
-            .position(|&x| x == v)
-            .expect("the value is in the column")
+            .position(|&m| m == far2)
+            .expect("a block attains the maximum")
+    } else {
+        0
+    };
+    let r = b * BLOCK..(b * BLOCK + BLOCK).min(len);
+    let [xs, ys, zs] = p.map(|c| &c[r.clone()]);
+    r.start
+        + (0..xs.len())
+            .find(|&i| dist2(xs[i], ys[i], zs[i], c) == far2)
+            .expect("the largest distance is attained")
 }
 
 /// The smallest of the cosines `n · a` of the normals `n` (columns), computed as `Vec3::dot`
 /// does, `(nx ax + ny ay) + nz az`; infinity for no normals. A minimum does not round either.
+#[inline(never)]
 fn min_cos(n: [&[f32]; 3], a: Vec3) -> f32 {
     let [xs, ys, zs] = n;
     let len = xs.len().min(ys.len()).min(zs.len());
@@ -671,44 +667,81 @@ fn min_cos(n: [&[f32]; 3], a: Vec3) -> f32 {
 /// items' coordinates.
 fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
     let len = items.len();
-    // Pass 1: the bounding box; the sums for the centroid and the mean normal (in f64: a
-    // million f32 additions would lose the centroid's low bits), in item order, so that the
-    // same items in the same order give the same bits; and the columns for the passes after it.
-    let first = items[0].p;
-    let (mut lo, mut hi) = (first, first);
+    let blocks = len.div_ceil(BLOCK);
+    // Pass 1, block by block: the bounding box, and each block's; the sums for the centroid
+    // and the mean normal (in f64: a million f32 additions would lose the centroid's low bits),
+    // in item order, so that the same items in the same order give the same bits; and the
+    // columns for the passes after it.
+    let (mut lo, mut hi) = (items[0].p, items[0].p);
     let (sum_p, sum_n) = {
         // Six scalar sums, which the compiler keeps in registers (not so a DVec3 pair).
         let mut s = [0.0f64; 6];
         let [px, py, pz] = &mut cols.p;
         let [nx, ny, nz] = &mut cols.n;
         let columns = px[..len]
-            .iter_mut()
-            .zip(&mut py[..len])
-            .zip(&mut pz[..len])
-            .zip(nx[..len].iter_mut().zip(&mut ny[..len]).zip(&mut nz[..len]));
-        for (it, (((px, py), pz), ((nx, ny), nz))) in items.iter().zip(columns) {
-            let (p, n) = (it.p, normals[it.id as usize]);
-            lo = lo.min(p);
-            hi = hi.max(p);
-            s[0] += f64::from(p.x);
-            s[1] += f64::from(p.y);
-            s[2] += f64::from(p.z);
-            s[3] += f64::from(n.x);
-            s[4] += f64::from(n.y);
-            s[5] += f64::from(n.z);
-            (*px, *py, *pz) = (p.x, p.y, p.z);
-            (*nx, *ny, *nz) = (n.x, n.y, n.z);
+            .chunks_mut(BLOCK)
+            .zip(py[..len].chunks_mut(BLOCK))
+            .zip(pz[..len].chunks_mut(BLOCK))
+            .zip(
+                nx[..len]
+                    .chunks_mut(BLOCK)
+                    .zip(ny[..len].chunks_mut(BLOCK))
+                    .zip(nz[..len].chunks_mut(BLOCK)),
+            );
+        let box_of_block = cols.blocks.chunks_exact_mut(6);
+        for ((chunk, (((px, py), pz), ((nx, ny), nz))), block_box) in items
+            .chunks(BLOCK)
+            .zip(columns)
+            .zip(box_of_block.chain(std::iter::repeat_with(|| &mut [][..])))
+        {
+            let (mut block_lo, mut block_hi) = (chunk[0].p, chunk[0].p);
+            let columns = px.iter_mut().zip(py.iter_mut()).zip(pz.iter_mut());
+            let columns = columns.zip(nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut()));
+            for (it, (((px, py), pz), ((nx, ny), nz))) in chunk.iter().zip(columns) {
+                let (p, n) = (it.p, normals[it.id as usize]);
+                block_lo = block_lo.min(p);
+                block_hi = block_hi.max(p);
+                s[0] += f64::from(p.x);
+                s[1] += f64::from(p.y);
+                s[2] += f64::from(p.z);
+                s[3] += f64::from(n.x);
+                s[4] += f64::from(n.y);
+                s[5] += f64::from(n.z);
+                (*px, *py, *pz) = (p.x, p.y, p.z);
+                (*nx, *ny, *nz) = (n.x, n.y, n.z);
+            }
+            if blocks > 1 {
+                block_box[..3].copy_from_slice(&block_lo.to_array());
+                block_box[3..].copy_from_slice(&block_hi.to_array());
+            }
+            lo = lo.min(block_lo);
+            hi = hi.max(block_hi);
         }
         (DVec3::new(s[0], s[1], s[2]), DVec3::new(s[3], s[4], s[5]))
     };
-    let p: [&[f32]; 3] = [&cols.p[0][..len], &cols.p[1][..len], &cols.p[2][..len]];
+    let (p, rest) = (&cols.p, &mut *cols.blocks);
+    let p: [&[f32]; 3] = [&p[0][..len], &p[1][..len], &p[2][..len]];
     let normal_cols: [&[f32]; 3] = [&cols.n[0][..len], &cols.n[1][..len], &cols.n[2][..len]];
+    let (boxes, block_far) = rest.split_at_mut(if blocks > 1 { 6 * blocks } else { 0 });
     // The first points on the box's faces, found after the box rather than tracked through
-    // pass 1 (six index updates per point cost more than six searches that stop at the first
-    // hit), and their coordinates, which for a face at 0 may be -0.0 or 0.0, whichever a scan
-    // keeping strictly smaller (larger) values would have kept: the first.
-    let arg_lo: [usize; 3] = std::array::from_fn(|a| first_equal(p[a], lo[a]));
-    let arg_hi: [usize; 3] = std::array::from_fn(|a| first_equal(p[a], hi[a]));
+    // pass 1 (an index update per face and point costs more than reading the first block at
+    // the extremum), and their coordinates, which for a face at 0 may be -0.0 or 0.0, whichever
+    // a scan keeping strictly smaller (larger) values would have kept: the first.
+    let first_of = |face: usize, v: f32| -> usize {
+        let a = face % 3;
+        let b = if blocks > 1 {
+            boxes
+                .chunks_exact(6)
+                .position(|bb| bb[face] == v)
+                .expect("a block attains the face")
+        } else {
+            0
+        };
+        let r = b * BLOCK..(b * BLOCK + BLOCK).min(len);
+        r.start + p[a][r].iter().position(|&x| x == v).expect("the face is attained")
+    };
+    let arg_lo: [usize; 3] = std::array::from_fn(|a| first_of(a, lo[a]));
+    let arg_hi: [usize; 3] = std::array::from_fn(|a| first_of(3 + a, hi[a]));
     let lo = Vec3::from_array(std::array::from_fn(|a| p[a][arg_lo[a]]));
     let hi = Vec3::from_array(std::array::from_fn(|a| p[a][arg_hi[a]]));
     let n = len as f64;
@@ -745,7 +778,11 @@ fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
 
     // Pass 2: the farthest point from each candidate centre, and the smallest normal cosine.
     let candidates = [lo * 0.5 + hi * 0.5, (sum_p / n).as_vec3(), ball.center.as_vec3()];
-    let far2 = farthest(p, candidates);
+    let far2 = [
+        farthest(p, candidates[0]),
+        farthest(p, candidates[1]),
+        farthest_by_block(p, candidates[2], block_far),
+    ];
     let min_cos = min_cos(normal_cols, cone_axis);
     let (mut best, mut best_far2) = (candidates[0], far2[0]);
     for (&c, &f) in candidates.iter().zip(&far2).skip(1) {
@@ -765,11 +802,11 @@ fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
         if f64::from(core_far2).sqrt() <= ball.radius * (1.0 + 1e-6) {
             break;
         }
-        let core_far = first_at(p, core_centre, core_far2);
+        let core_far = first_at(p, core_centre, core_far2, block_far);
         core.push(items[core_far].p.as_dvec3());
         ball = core.ball();
         core_centre = ball.center.as_vec3();
-        [core_far2] = farthest(p, [core_centre]);
+        core_far2 = farthest_by_block(p, core_centre, block_far);
         if core_far2 < best_far2 {
             (best, best_far2) = (core_centre, core_far2);
         }
