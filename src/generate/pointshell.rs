@@ -94,8 +94,8 @@ pub fn pointshell(
     report.t_project = t.elapsed();
     let t = std::time::Instant::now();
     let origin = (lo + hi) * 0.5;
-    let mut points = vec![Vec3::ZERO; total];
-    let mut normals = vec![Vec3::ZERO; total];
+    let mut points: Vec<Vec3> = bytemuck::zeroed_vec(total);
+    let mut normals: Vec<Vec3> = bytemuck::zeroed_vec(total);
     // Runs of bricks in key order, each filling its own part of the output: the runs keep
     // the key-ordered look-ups of their neighbourhoods cheap (see `Neighbours`).
     let mut runs = Vec::new();

@@ -288,8 +288,8 @@ fn at_most(a: f32, b: f32) -> bool {
 
 /// Reorders `values` (points, normals, anything per point) by the `order` that [`build`]
 /// returned: element `i` of the result is `values[order[i]]`.
-pub fn reorder<T: Copy>(values: &[T], order: &[u32]) -> Vec<T> {
-    order.iter().map(|&i| values[i as usize]).collect()
+pub fn reorder<T: Copy + Send + Sync>(values: &[T], order: &[u32]) -> Vec<T> {
+    order.par_iter().map(|&i| values[i as usize]).collect()
 }
 
 /// A point during the build: position and where it came from, kept together so that the median
@@ -334,14 +334,14 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
     // Node indices are u32 and a tree has fewer than 2n nodes.
     assert!(points.len() < 1 << 31, "too many points for u32 node indices");
     assert!(
-        points.iter().chain(normals).all(|v| v.is_finite()),
+        points.par_iter().chain(normals).all(|v| v.is_finite()),
         "points and normals must be finite"
     );
     if points.is_empty() {
         return (SphereTree::default(), Vec::new());
     }
     let mut items: Vec<Item> = points
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, &p)| Item { p, id: i as u32 })
         .collect();
@@ -354,7 +354,7 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
         leaf: leaf_size,
     };
     build_node(&mut items, cols, &shared, 0, 0, root, rest, 1);
-    let order = items.iter().map(|it| it.id).collect();
+    let order = items.par_iter().map(|it| it.id).collect();
     (SphereTree { nodes }, order)
 }
 
@@ -605,6 +605,16 @@ fn farthest(p: [&[f32]; 3], c: Vec3) -> f32 {
 /// [`farthest`], noting each block's largest squared distance in `blocks`.
 fn farthest_by_block(p: [&[f32]; 3], c: Vec3, blocks: &mut [f32]) -> f32 {
     let [xs, ys, zs] = p;
+    if xs.len() >= PARALLEL_PASS_POINTS {
+        // Halves at a block boundary, in parallel: a maximum does not depend on the order.
+        let mid = xs.len() / 2 / BLOCK * BLOCK;
+        let (b0, b1) = blocks.split_at_mut(mid / BLOCK);
+        let (m0, m1) = rayon::join(
+            || farthest_by_block(p.map(|c| &c[..mid]), c, b0),
+            || farthest_by_block(p.map(|c| &c[mid..]), c, b1),
+        );
+        return larger(m0, m1);
+    }
     let blocks = xs.chunks(BLOCK).zip(ys.chunks(BLOCK)).zip(zs.chunks(BLOCK)).zip(blocks);
     let mut m = 0.0f32;
     for (((x, y), z), block) in blocks {
@@ -663,62 +673,99 @@ fn min_cos(n: [&[f32]; 3], a: Vec3) -> f32 {
     lowest
 }
 
-/// Bounding sphere and normal cone of `items` (not empty), in O(items). `cols` receives the
-/// items' coordinates.
-fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
+/// Nodes with at least this many points run their passes in parallel: only the first levels
+/// of a large tree, where there are fewer nodes than cores.
+const PARALLEL_PASS_POINTS: usize = 1 << 16;
+
+/// The sums of the coordinates and of the normals of `items`, in f64 (a million f32
+/// additions would lose the centroid's low bits) and in item order, so that the same items in
+/// the same order give the same bits.
+fn sums(items: &[Item], normals: &[Vec3]) -> [f64; 6] {
+    // Six scalar sums, which the compiler keeps in registers (not so a DVec3 pair).
+    let mut s = [0.0f64; 6];
+    for it in items {
+        let (p, n) = (it.p, normals[it.id as usize]);
+        s[0] += f64::from(p.x);
+        s[1] += f64::from(p.y);
+        s[2] += f64::from(p.z);
+        s[3] += f64::from(n.x);
+        s[4] += f64::from(n.y);
+        s[5] += f64::from(n.z);
+    }
+    s
+}
+
+/// The first pass over a node's items: the columns of `cols`, the box of each block of
+/// [`BLOCK`] points (for nodes of more than one block) and the bounding box, which is
+/// returned; with `SUMS`, also [`sums`], in the same scan.
+fn pass1<const SUMS: bool>(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> ([f64; 6], (Vec3, Vec3)) {
     let len = items.len();
     let blocks = len.div_ceil(BLOCK);
-    // Pass 1, block by block: the bounding box, and each block's; the sums for the centroid
-    // and the mean normal (in f64: a million f32 additions would lose the centroid's low bits),
-    // in item order, so that the same items in the same order give the same bits; and the
-    // columns for the passes after it.
+    let mut s = [0.0f64; 6];
     let (mut lo, mut hi) = (items[0].p, items[0].p);
-    let (sum_p, sum_n) = {
-        // Six scalar sums, which the compiler keeps in registers (not so a DVec3 pair).
-        let mut s = [0.0f64; 6];
-        let [px, py, pz] = &mut cols.p;
-        let [nx, ny, nz] = &mut cols.n;
-        let columns = px[..len]
-            .chunks_mut(BLOCK)
-            .zip(py[..len].chunks_mut(BLOCK))
-            .zip(pz[..len].chunks_mut(BLOCK))
-            .zip(
-                nx[..len]
-                    .chunks_mut(BLOCK)
-                    .zip(ny[..len].chunks_mut(BLOCK))
-                    .zip(nz[..len].chunks_mut(BLOCK)),
-            );
-        let box_of_block = cols.blocks.chunks_exact_mut(6);
-        for ((chunk, (((px, py), pz), ((nx, ny), nz))), block_box) in items
-            .chunks(BLOCK)
-            .zip(columns)
-            .zip(box_of_block.chain(std::iter::repeat_with(|| &mut [][..])))
-        {
-            let (mut block_lo, mut block_hi) = (chunk[0].p, chunk[0].p);
-            let columns = px.iter_mut().zip(py.iter_mut()).zip(pz.iter_mut());
-            let columns = columns.zip(nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut()));
-            for (it, (((px, py), pz), ((nx, ny), nz))) in chunk.iter().zip(columns) {
-                let (p, n) = (it.p, normals[it.id as usize]);
-                block_lo = block_lo.min(p);
-                block_hi = block_hi.max(p);
+    let [px, py, pz] = &mut cols.p;
+    let [nx, ny, nz] = &mut cols.n;
+    let columns = px[..len]
+        .chunks_mut(BLOCK)
+        .zip(py[..len].chunks_mut(BLOCK))
+        .zip(pz[..len].chunks_mut(BLOCK))
+        .zip(
+            nx[..len]
+                .chunks_mut(BLOCK)
+                .zip(ny[..len].chunks_mut(BLOCK))
+                .zip(nz[..len].chunks_mut(BLOCK)),
+        );
+    let box_of_block = cols.blocks.chunks_exact_mut(6);
+    for ((chunk, (((px, py), pz), ((nx, ny), nz))), block_box) in items
+        .chunks(BLOCK)
+        .zip(columns)
+        .zip(box_of_block.chain(std::iter::repeat_with(|| &mut [][..])))
+    {
+        let (mut block_lo, mut block_hi) = (chunk[0].p, chunk[0].p);
+        let columns = px.iter_mut().zip(py.iter_mut()).zip(pz.iter_mut());
+        let columns = columns.zip(nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut()));
+        for (it, (((px, py), pz), ((nx, ny), nz))) in chunk.iter().zip(columns) {
+            let (p, n) = (it.p, normals[it.id as usize]);
+            block_lo = block_lo.min(p);
+            block_hi = block_hi.max(p);
+            if SUMS {
                 s[0] += f64::from(p.x);
                 s[1] += f64::from(p.y);
                 s[2] += f64::from(p.z);
                 s[3] += f64::from(n.x);
                 s[4] += f64::from(n.y);
                 s[5] += f64::from(n.z);
-                (*px, *py, *pz) = (p.x, p.y, p.z);
-                (*nx, *ny, *nz) = (n.x, n.y, n.z);
             }
-            if blocks > 1 {
-                block_box[..3].copy_from_slice(&block_lo.to_array());
-                block_box[3..].copy_from_slice(&block_hi.to_array());
-            }
-            lo = lo.min(block_lo);
-            hi = hi.max(block_hi);
+            (*px, *py, *pz) = (p.x, p.y, p.z);
+            (*nx, *ny, *nz) = (n.x, n.y, n.z);
         }
-        (DVec3::new(s[0], s[1], s[2]), DVec3::new(s[3], s[4], s[5]))
+        if blocks > 1 {
+            block_box[..3].copy_from_slice(&block_lo.to_array());
+            block_box[3..].copy_from_slice(&block_hi.to_array());
+        }
+        lo = lo.min(block_lo);
+        hi = hi.max(block_hi);
+    }
+    (s, (lo, hi))
+}
+
+/// Bounding sphere and normal cone of `items` (not empty), in O(items). `cols` receives the
+/// items' coordinates.
+fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
+    let len = items.len();
+    let blocks = len.div_ceil(BLOCK);
+    // Pass 1, block by block: the bounding box, and each block's; the sums for the centroid
+    // and the mean normal; and the columns for the passes after it. A large node (the first
+    // few levels, where the other core may have nothing else to do) runs the sums, which must
+    // stay one sequential scan, beside the rest.
+    let (sums, (lo, hi)) = if len >= PARALLEL_PASS_POINTS {
+        let (s, (_, bbox)) = rayon::join(|| sums(items, normals), || pass1::<false>(items, normals, cols));
+        (s, bbox)
+    } else {
+        pass1::<true>(items, normals, cols)
     };
+    let sum_p = DVec3::new(sums[0], sums[1], sums[2]);
+    let sum_n = DVec3::new(sums[3], sums[4], sums[5]);
     let (p, rest) = (&cols.p, &mut *cols.blocks);
     let p: [&[f32]; 3] = [&p[0][..len], &p[1][..len], &p[2][..len]];
     let normal_cols: [&[f32]; 3] = [&cols.n[0][..len], &cols.n[1][..len], &cols.n[2][..len]];
@@ -778,12 +825,26 @@ fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
 
     // Pass 2: the farthest point from each candidate centre, and the smallest normal cosine.
     let candidates = [lo * 0.5 + hi * 0.5, (sum_p / n).as_vec3(), ball.center.as_vec3()];
-    let far2 = [
-        farthest(p, candidates[0]),
-        farthest(p, candidates[1]),
-        farthest_by_block(p, candidates[2], block_far),
-    ];
-    let min_cos = min_cos(normal_cols, cone_axis);
+    let ((f0, f1), (f2, min_cos)) = if len >= PARALLEL_PASS_POINTS {
+        rayon::join(
+            || rayon::join(|| farthest(p, candidates[0]), || farthest(p, candidates[1])),
+            || {
+                rayon::join(
+                    || farthest_by_block(p, candidates[2], block_far),
+                    || min_cos(normal_cols, cone_axis),
+                )
+            },
+        )
+    } else {
+        (
+            (farthest(p, candidates[0]), farthest(p, candidates[1])),
+            (
+                farthest_by_block(p, candidates[2], block_far),
+                min_cos(normal_cols, cone_axis),
+            ),
+        )
+    };
+    let far2 = [f0, f1, f2];
     let (mut best, mut best_far2) = (candidates[0], far2[0]);
     for (&c, &f) in candidates.iter().zip(&far2).skip(1) {
         if f < best_far2 {
