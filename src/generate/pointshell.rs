@@ -13,6 +13,8 @@
 //!    the object. Where the sum is small against its terms (thin sheets, open meshes, whose
 //!    two sides look alike), the normal of the point's triangle is used instead, turned to the
 //!    side the voxmap says is more inside.
+//!    A point with no inside voxel in that 5×5×5 neighbourhood is counted as *two-sided*
+//!    (`PointshellStats::two_sided_points`): a sheet with air on both sides.
 //! 3. **Tree.** A sphere tree over the points; points are reordered so that every node's
 //!    points are contiguous.
 
@@ -132,8 +134,9 @@ pub fn pointshell(
                         local as u32 >> (2 * BRICK_SHIFT),
                     ];
                     s.mismatches += (window.get(l, [0, 0, 0]) != 0) as u64;
-                    let (n, fell_back) = window.normal(l, &mesh.triangles[triangle as usize]);
+                    let (n, fell_back, two_sided) = window.normal(l, &mesh.triangles[triangle as usize]);
                     s.fallbacks += fell_back as u64;
+                    s.two_sided += two_sided as u64;
                     p_out[at] = (grid.origin + *point * grid.voxel_size - origin).as_vec3();
                     n_out[at] = n.as_vec3();
                     at += 1;
@@ -145,6 +148,7 @@ pub fn pointshell(
     for s in per_run {
         stats.normal_fallbacks += s.fallbacks;
         stats.voxmap_mismatches += s.mismatches;
+        stats.two_sided_points += s.two_sided;
     }
     drop(chunks);
 
@@ -176,6 +180,7 @@ const BRICKS_PER_RUN: usize = 64;
 struct NormalStats {
     fallbacks: u64,
     mismatches: u64,
+    two_sided: u64,
 }
 
 /// Where one surface brick's points are: in chunk `chunk`'s arrays, `start..start + len`.
@@ -399,6 +404,8 @@ struct Sums {
     s: [i32; 3],
     /// `Σ |value|` over the offsets of each squared length 0 to 12.
     by_length: [i32; 13],
+    /// Whether a value is > 0 (an inside voxel).
+    inside: bool,
 }
 
 /// The squared distance `y² + z²` from the centre of the rows of each slot of [`sums`]: the
@@ -428,6 +435,7 @@ fn sums(values: &[i8], base: usize) -> Sums {
     let (mut all_even, mut all_odd) = (0u64, 0u64);
     let (mut y_pos, mut y_neg, mut z_pos, mut z_neg) = (0u64, 0u64, 0u64, 0u64);
     let (mut abs_even, mut abs_odd) = ([0u64; 6], [0u64; 6]);
+    let mut positive = 0u64;
     // Written out row by row, so that offsets, weights and slots are constants.
     macro_rules! row {
         ($y:literal, $z:literal, $slot:literal) => {{
@@ -460,6 +468,9 @@ fn sums(values: &[i8], base: usize) -> Sums {
             let a = (v ^ (negative * 0xff)) + negative;
             abs_even[$slot] += a & EVEN;
             abs_odd[$slot] += (a >> 8) & ODD;
+            // The top bit of a byte ends up set if its low 7 bits are not all 0 and its own top
+            // bit (the sign) is clear: if the value is > 0.
+            positive |= ((v & !(ONES * 0x80)) + ONES * 0x7f) & !v & (ONES * 0x80);
         }};
     }
     row!(-2, -2, 5);
@@ -501,6 +512,7 @@ fn sums(values: &[i8], base: usize) -> Sums {
             hsum(z_pos) - hsum(z_neg),
         ],
         by_length,
+        inside: positive != 0,
     }
 }
 
@@ -510,6 +522,7 @@ fn sums_scalar(values: &[i8], base: usize) -> Sums {
     let mut out = Sums {
         s: [0; 3],
         by_length: [0; 13],
+        inside: false,
     };
     for z in -2i32..=2 {
         for y in -2i32..=2 {
@@ -520,6 +533,7 @@ fn sums_scalar(values: &[i8], base: usize) -> Sums {
                 out.s[1] += v * y;
                 out.s[2] += v * z;
                 out.by_length[(x * x + y * y + z * z) as usize] += v.abs();
+                out.inside |= v > 0;
             }
         }
     }
@@ -587,12 +601,14 @@ impl Window {
         self.values[start..start + 5].try_into().expect("five values")
     }
 
-    /// The inward normal at local voxel `l`, and whether the triangle's normal had to be used.
-    fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool) {
+    /// The inward normal at local voxel `l`; whether the triangle's normal had to be used; and
+    /// whether the point is two-sided: no voxel of its 5×5×5 neighbourhood is inside.
+    fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool, bool) {
         let base = (l[2] as usize * W + l[1] as usize) * W + l[0] as usize;
         let Sums {
             s: [sx, sy, sz],
             by_length,
+            inside,
         } = sums(&self.values[..], base);
         let sum = DVec3::new(sx as f64, sy as f64, sz as f64);
         let len = sum.length();
@@ -605,7 +621,7 @@ impl Window {
                 len > NORMAL_STABILITY * self.scale_f32(l)
             };
             if stable {
-                return (sum / len, false);
+                return (sum / len, false, !inside);
             }
         }
         // Triangle normal, turned towards the side with the larger voxmap values.
@@ -622,7 +638,7 @@ impl Window {
         }
         // With no preference (a sheet seen alike from both sides), OBJ winding makes the
         // triangle normal point out, so its opposite points in.
-        (if side > 0.0 { n } else { -n }, true)
+        (if side > 0.0 { n } else { -n }, true, !inside)
     }
 
     /// `Σ |value| · |offset|` over the neighbourhood of `l` as the stability test defines it: in
