@@ -150,6 +150,14 @@ fn sheets_are_two_sided_and_closed_shapes_are_not() {
                 assert_eq!(n, glam::Vec3::NEG_Z, "z = {z0}: point {i} at {:?}", ps.point(i));
             }
         }
+        // Near the rim, the normals that are not the triangle's point back over the sheet.
+        for (i, n) in ps.normals.iter().enumerate() {
+            if n.z.abs() != 1.0 {
+                let p = ps.point(i);
+                let to_middle = glam::Vec2::new(5.0 - p.x as f32, 5.0 - p.y as f32);
+                assert!(to_middle.dot(n.truncate()) > 0.0, "z = {z0}: point {i} at {p:?}: {n}");
+            }
+        }
         if z0 != 0.0 {
             // A one-voxel sheet is symmetric: the neighbourhood sum cancels and the triangle
             // normal is used (on a face, the pair of voxels makes the sum lopsided enough).
