@@ -17,7 +17,8 @@ use vps::pointshell::tree::{SphereNode, SphereTree, LEAF_SIZE, NO_CHILD};
 use vps::pointshell::{Pointshell, PointshellStats};
 use vps::shapes;
 use vps::storage::pointshell::{
-    write_ply, write_pointshell, PointshellFile, RawPsHeader, PS_HEADER_BYTES, PS_MAGIC, PS_VERSION,
+    write_ply, write_pointshell, PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1,
+    PS_MAGIC, PS_VERSION, PS_VERSION_1,
 };
 use vps::storage::StorageError;
 
@@ -76,6 +77,100 @@ fn corrupt_what(r: Result<PointshellFile, StorageError>) -> String {
     }
 }
 
+/// The same pointshell in the version-1 layout, as a version-1 writer made it: the 152-byte
+/// header without `two_sided_points`, 8 zero bytes, then the sections, which start at 160 in
+/// both versions.
+fn to_version_1(v2: &[u8]) -> Vec<u8> {
+    let h = header_of(v2);
+    let mut v1 = RawPsHeaderV1 {
+        magic: h.magic,
+        version: PS_VERSION_1,
+        header_bytes: PS_HEADER_BYTES_V1 as u32,
+        origin: h.origin,
+        voxel_size: h.voxel_size,
+        points: h.points,
+        nodes: h.nodes,
+        tree_depth: h.tree_depth,
+        leaf_size: h.leaf_size,
+        interior_points: h.interior_points,
+        boundary_points_recovered: h.boundary_points_recovered,
+        normal_fallbacks: h.normal_fallbacks,
+        voxmap_mismatches: h.voxmap_mismatches,
+        points_offset: h.points_offset,
+        normals_offset: h.normals_offset,
+        nodes_offset: h.nodes_offset,
+        file_bytes: h.file_bytes,
+        points_crc: h.points_crc,
+        normals_crc: h.normals_crc,
+        nodes_crc: h.nodes_crc,
+        header_crc: 0,
+    };
+    v1.header_crc = crc32fast::hash(&bytemuck::bytes_of(&v1)[..148]);
+    let mut out = bytemuck::bytes_of(&v1).to_vec();
+    out.resize(160, 0);
+    out.extend_from_slice(&v2[160..]);
+    out
+}
+
+#[test]
+fn version_1_files_still_open() {
+    let torus = Mesh::from_triangles("torus", shapes::torus(DVec3::new(-4.0, 0.5, 2.0), 5.0, 1.5, 48, 16)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (name, shell) in [("small", small().0), ("torus", shell_of(&torus, 0.3, LEAF_SIZE))] {
+        let path = dir.path().join("v2.vps");
+        write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+        let v2 = std::fs::read(&path).unwrap();
+        let v1 = to_version_1(&v2);
+        assert_eq!(v1.len(), v2.len(), "{name}: the sections lie alike");
+        let path = dir.path().join("v1.vps");
+        std::fs::write(&path, &v1).unwrap();
+        for f in [
+            PointshellFile::open(&path).unwrap(),
+            PointshellFile::from_bytes(&v1).unwrap(),
+        ] {
+            let h = f.header();
+            assert_eq!(h.version, 1, "{name}");
+            assert_eq!(h.stats.two_sided_points, 0, "{name}: version 1 did not count them");
+            let expected = PointshellStats {
+                two_sided_points: 0,
+                ..shell.stats
+            };
+            assert_eq!(h.stats, expected, "{name}");
+            assert_eq!(
+                (h.points, h.nodes, h.file_bytes),
+                (shell.len() as u64, shell.tree.nodes.len() as u64, v1.len() as u64)
+            );
+            assert_eq!(f.points(), &shell.points[..]);
+            assert_eq!(f.normals(), &shell.normals[..]);
+            assert_eq!(f.nodes(), &shell.tree.nodes[..]);
+        }
+    }
+
+    // Version 1's checks hold for version-1 files: every flipped byte of the header, and of the
+    // padding after it, is caught.
+    let v1 = to_version_1(&small().1);
+    for i in 0..176 {
+        let mut b = v1.clone();
+        b[i] ^= 0x10;
+        let r = PointshellFile::from_bytes(&b);
+        if (8..12).contains(&i) {
+            assert!(matches!(r, Err(StorageError::UnsupportedVersion { .. })), "byte {i}");
+        } else if (12..PS_HEADER_BYTES_V1).contains(&i) {
+            assert!(matches!(r, Err(StorageError::HeaderChecksum { .. })), "byte {i}");
+        } else if (PS_HEADER_BYTES_V1..160).contains(&i) {
+            assert!(corrupt_what(r).contains("padding"), "byte {i}");
+        } else {
+            assert!(r.is_err(), "byte {i}");
+        }
+    }
+    // Truncated inside the version-1 header: the version-1 length is expected.
+    match PointshellFile::from_bytes(&v1[..100]) {
+        Err(StorageError::Truncated { expected, .. }) => assert_eq!(expected, 152),
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("opened"),
+    }
+}
+
 #[test]
 fn header_layout_matches_the_spec() {
     // (field offset, size) as in docs/FORMAT.md; no implicit padding anywhere.
@@ -93,22 +188,54 @@ fn header_layout_matches_the_spec() {
         (offset_of!(RawPsHeader, boundary_points_recovered), 80),
         (offset_of!(RawPsHeader, normal_fallbacks), 88),
         (offset_of!(RawPsHeader, voxmap_mismatches), 96),
-        (offset_of!(RawPsHeader, points_offset), 104),
-        (offset_of!(RawPsHeader, normals_offset), 112),
-        (offset_of!(RawPsHeader, nodes_offset), 120),
-        (offset_of!(RawPsHeader, file_bytes), 128),
-        (offset_of!(RawPsHeader, points_crc), 136),
-        (offset_of!(RawPsHeader, normals_crc), 140),
-        (offset_of!(RawPsHeader, nodes_crc), 144),
-        (offset_of!(RawPsHeader, header_crc), 148),
+        (offset_of!(RawPsHeader, two_sided_points), 104),
+        (offset_of!(RawPsHeader, points_offset), 112),
+        (offset_of!(RawPsHeader, normals_offset), 120),
+        (offset_of!(RawPsHeader, nodes_offset), 128),
+        (offset_of!(RawPsHeader, file_bytes), 136),
+        (offset_of!(RawPsHeader, points_crc), 144),
+        (offset_of!(RawPsHeader, normals_crc), 148),
+        (offset_of!(RawPsHeader, nodes_crc), 152),
+        (offset_of!(RawPsHeader, header_crc), 156),
     ];
     for (i, (actual, spec)) in fields.iter().enumerate() {
         assert_eq!(actual, spec, "header field {i}");
     }
-    assert_eq!(PS_HEADER_BYTES, 152);
-    assert_eq!(size_of::<RawPsHeader>(), 152);
+    assert_eq!(PS_HEADER_BYTES, 160);
+    assert_eq!(size_of::<RawPsHeader>(), 160);
     assert_eq!(PS_MAGIC, *b"VPSPSHL\x1a");
-    assert_eq!(PS_VERSION, 1);
+    assert_eq!(PS_VERSION, 2);
+
+    // Version 1, which this build still reads: the same fields without two_sided_points.
+    let v1 = [
+        (offset_of!(RawPsHeaderV1, magic), 0),
+        (offset_of!(RawPsHeaderV1, version), 8),
+        (offset_of!(RawPsHeaderV1, header_bytes), 12),
+        (offset_of!(RawPsHeaderV1, origin), 16),
+        (offset_of!(RawPsHeaderV1, voxel_size), 40),
+        (offset_of!(RawPsHeaderV1, points), 48),
+        (offset_of!(RawPsHeaderV1, nodes), 56),
+        (offset_of!(RawPsHeaderV1, tree_depth), 64),
+        (offset_of!(RawPsHeaderV1, leaf_size), 68),
+        (offset_of!(RawPsHeaderV1, interior_points), 72),
+        (offset_of!(RawPsHeaderV1, boundary_points_recovered), 80),
+        (offset_of!(RawPsHeaderV1, normal_fallbacks), 88),
+        (offset_of!(RawPsHeaderV1, voxmap_mismatches), 96),
+        (offset_of!(RawPsHeaderV1, points_offset), 104),
+        (offset_of!(RawPsHeaderV1, normals_offset), 112),
+        (offset_of!(RawPsHeaderV1, nodes_offset), 120),
+        (offset_of!(RawPsHeaderV1, file_bytes), 128),
+        (offset_of!(RawPsHeaderV1, points_crc), 136),
+        (offset_of!(RawPsHeaderV1, normals_crc), 140),
+        (offset_of!(RawPsHeaderV1, nodes_crc), 144),
+        (offset_of!(RawPsHeaderV1, header_crc), 148),
+    ];
+    for (i, (actual, spec)) in v1.iter().enumerate() {
+        assert_eq!(actual, spec, "version 1 header field {i}");
+    }
+    assert_eq!(PS_HEADER_BYTES_V1, 152);
+    assert_eq!(size_of::<RawPsHeaderV1>(), 152);
+    assert_eq!(PS_VERSION_1, 1);
 
     let nodes = [
         (offset_of!(SphereNode, center), 0),
@@ -186,7 +313,8 @@ fn round_trips_with_the_header_filled_in() {
         assert_eq!(raw.normals_offset, up(160 + 12 * np));
         assert_eq!(raw.nodes_offset, up(raw.normals_offset + 12 * np));
         assert_eq!(raw.file_bytes, raw.nodes_offset + 48 * h.nodes);
-        assert_eq!(raw.header_crc, crc32fast::hash(&bytes[..148]));
+        assert_eq!(raw.header_crc, crc32fast::hash(&bytes[..156]));
+        assert_eq!(raw.two_sided_points, shell.stats.two_sided_points);
         let section = |off: u64, len: u64| &bytes[off as usize..(off + len) as usize];
         assert_eq!(raw.points_crc, crc32fast::hash(section(raw.points_offset, 12 * np)));
         assert_eq!(raw.normals_crc, crc32fast::hash(section(raw.normals_offset, 12 * np)));
@@ -275,20 +403,36 @@ fn magic_version_and_header_fields_are_checked() {
     ));
 
     // A later version, with a valid header CRC; and without one, since the version comes first.
-    let mut b = bytes.clone();
-    let mut h = header_of(&b);
-    h.version = 2;
-    put_header(&mut b, &h);
-    for fix in [false, true] {
-        if fix {
-            fix_checksums(&mut b);
-        }
-        match PointshellFile::from_bytes(&b) {
-            Err(StorageError::UnsupportedVersion { found, supported, .. }) => assert_eq!((found, supported), (2, 1)),
-            Err(e) => panic!("{e}"),
-            Ok(_) => panic!("version 2 opened"),
+    // Version 0 was never written either.
+    for version in [3, 0, u32::MAX] {
+        let mut b = bytes.clone();
+        let mut h = header_of(&b);
+        h.version = version;
+        put_header(&mut b, &h);
+        for fix in [false, true] {
+            if fix {
+                fix_checksums(&mut b);
+            }
+            match PointshellFile::from_bytes(&b) {
+                Err(StorageError::UnsupportedVersion { found, supported, .. }) => {
+                    assert_eq!((found, supported), (version, 2))
+                }
+                Err(e) => panic!("{e}"),
+                Ok(_) => panic!("version {version} opened"),
+            }
         }
     }
+    // A version-2 header that says version 1 is read as version 1, whose header CRC then sits
+    // elsewhere.
+    let mut b = bytes.clone();
+    let mut h = header_of(&b);
+    h.version = 1;
+    put_header(&mut b, &h);
+    fix_checksums(&mut b);
+    assert!(matches!(
+        PointshellFile::from_bytes(&b),
+        Err(StorageError::HeaderChecksum { .. })
+    ));
 
     // Header fields that pass the CRC but break the rules.
     type Edit = (&'static str, fn(&mut RawPsHeader), &'static str);
@@ -296,7 +440,7 @@ fn magic_version_and_header_fields_are_checked() {
         ("nan voxel size", |h| h.voxel_size = f64::NAN, "not finite"),
         ("zero voxel size", |h| h.voxel_size = 0.0, "not finite"),
         ("infinite origin", |h| h.origin[1] = f64::INFINITY, "not finite"),
-        ("header_bytes", |h| h.header_bytes = 160, "offsets"),
+        ("header_bytes", |h| h.header_bytes = 152, "offsets"),
         ("nodes offset", |h| h.nodes_offset += 16, "offsets"),
         ("one node fewer", |h| h.nodes -= 1, "offsets"),
         ("huge counts", |h| h.points = u64::MAX / 4, "impossible"),
@@ -316,7 +460,7 @@ fn magic_version_and_header_fields_are_checked() {
     let mut h = header_of(&b);
     h.nodes -= 1;
     h.file_bytes -= 48;
-    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..148]);
+    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..156]);
     put_header(&mut b, &h);
     b.truncate(h.file_bytes as usize);
     assert!(corrupt_what(PointshellFile::from_bytes(&b)).contains("tree nodes section checksum"));
@@ -564,10 +708,13 @@ fn write_fuzz_seeds() {
     for (name, shell) in [("small", small().0), ("tiny", tiny), ("empty", empty)] {
         let path = dir.path().join("seed.vps");
         write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
-        for mode in [0u8, 1] {
-            let mut seed = vec![mode];
-            seed.extend_from_slice(&std::fs::read(&path).unwrap());
-            std::fs::write(out.join(format!("{name}-{mode}")), seed).unwrap();
+        let v2 = std::fs::read(&path).unwrap();
+        for (version, bytes) in [("v1", to_version_1(&v2)), ("v2", v2)] {
+            for mode in [0u8, 1] {
+                let mut seed = vec![mode];
+                seed.extend_from_slice(&bytes);
+                std::fs::write(out.join(format!("{name}-{version}-{mode}")), seed).unwrap();
+            }
         }
     }
 }
@@ -674,10 +821,36 @@ fn cli_pointshell_info_and_export() {
     ] {
         assert_eq!(info[key], made[key], "info and pointshell disagree on {key}");
     }
-    assert_eq!(info["format_version"].as_u64(), Some(1));
+    assert_eq!(info["format_version"].as_u64(), Some(2));
     assert_eq!(info["leaf_size"].as_u64(), Some(LEAF_SIZE as u64));
+    assert_eq!(info["two_sided_points"], made["two_sided_points"]);
+    assert_eq!(
+        made["two_sided_points"].as_u64(),
+        Some(0),
+        "a closed ball has no two-sided points"
+    );
     let text = vps(&["info", p(&vps_path)]);
-    assert!(text.status.success() && String::from_utf8_lossy(&text.stdout).contains("pointshell format 1"));
+    let text_out = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.status.success() && text_out.contains("pointshell format 2"),
+        "{text_out}"
+    );
+    assert!(text_out.contains("two-sided        0"), "{text_out}");
+
+    // A version-1 file: info reads it, with no two-sided count.
+    let old = d.join("old.vps");
+    std::fs::write(&old, to_version_1(&std::fs::read(&vps_path).unwrap())).unwrap();
+    let info = json(&vps(&["info", p(&old), "--json"]));
+    assert_eq!(info["format_version"].as_u64(), Some(1));
+    assert_eq!(info["points"], made["points"]);
+    assert_eq!(info["two_sided_points"].as_u64(), Some(0));
+    let text = vps(&["info", p(&old)]);
+    let text_out = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.status.success() && text_out.contains("pointshell format 1"),
+        "{text_out}"
+    );
+    assert!(text_out.contains("not counted"), "{text_out}");
 
     let ply = d.join("ball.ply");
     let o = vps(&["export", p(&vps_path), "--ply", p(&ply)]);

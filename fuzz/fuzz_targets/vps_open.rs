@@ -3,11 +3,14 @@
 //!
 //! The first input byte is a mode: if its low bit is set, the section CRCs and the header CRC
 //! are recomputed before opening, so the fuzzer reaches the layout and tree checks behind
-//! them (random mutations almost never keep a CRC-32 valid).
+//! them (random mutations almost never keep a CRC-32 valid). Both header layouts the reader
+//! accepts are fixed up, version 1's and version 2's, by the version the input says.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vps::storage::pointshell::{PointshellFile, RawPsHeader, PS_HEADER_BYTES};
+use vps::storage::pointshell::{
+    PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1, PS_VERSION_1,
+};
 
 fuzz_target!(|input: &[u8]| {
     let Some((&mode, data)) = input.split_first() else {
@@ -27,6 +30,9 @@ fuzz_target!(|input: &[u8]| {
 /// keep every index in bounds.
 fn walk(file: &PointshellFile) {
     let h = file.header();
+    if h.version == PS_VERSION_1 {
+        assert_eq!(h.stats.two_sided_points, 0, "version 1 counts no two-sided points");
+    }
     let (points, normals, nodes) = (file.points(), file.normals(), file.nodes());
     assert_eq!(points.len() as u64, h.points);
     assert_eq!(normals.len(), points.len());
@@ -75,23 +81,50 @@ fn walk(file: &PointshellFile) {
 }
 
 /// Recompute, wherever the header's offsets and counts allow, the CRC of each section and of
-/// the header.
+/// the header, in the layout of the version the input says (1, or else 2).
 fn fix_checksums(data: &mut [u8]) {
+    let version = data.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+    if version == Some(PS_VERSION_1) {
+        let Some(mut h) = data
+            .get(..PS_HEADER_BYTES_V1)
+            .and_then(|b| bytemuck::try_pod_read_unaligned::<RawPsHeaderV1>(b).ok())
+        else {
+            return;
+        };
+        let counts = (h.points, h.nodes);
+        let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
+        let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
+        (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+        h.header_crc = h.compute_crc();
+        data[..PS_HEADER_BYTES_V1].copy_from_slice(bytemuck::bytes_of(&h));
+        return;
+    }
     let Some(mut h) = data
         .get(..PS_HEADER_BYTES)
         .and_then(|b| bytemuck::try_pod_read_unaligned::<RawPsHeader>(b).ok())
     else {
         return;
     };
+    let counts = (h.points, h.nodes);
+    let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
+    let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
+    (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
+    data[..PS_HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+}
+
+/// The CRCs of the points, normals and nodes where the counts and offsets lie within `data`,
+/// the old ones elsewhere.
+fn section_crcs(data: &[u8], (points, nodes): (u64, u64), offsets: (u64, u64, u64), old: (u32, u32, u32)) -> (u32, u32, u32) {
     let section = |start: u64, len: Option<u64>| -> Option<u32> {
         let end = start.checked_add(len?)?;
         let range = usize::try_from(start).ok()?..usize::try_from(end).ok()?;
         data.get(range).map(crc32fast::hash)
     };
-    let point_bytes = h.points.checked_mul(12);
-    h.points_crc = section(h.points_offset, point_bytes).unwrap_or(h.points_crc);
-    h.normals_crc = section(h.normals_offset, point_bytes).unwrap_or(h.normals_crc);
-    h.nodes_crc = section(h.nodes_offset, h.nodes.checked_mul(48)).unwrap_or(h.nodes_crc);
-    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
-    data[..PS_HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+    let point_bytes = points.checked_mul(12);
+    (
+        section(offsets.0, point_bytes).unwrap_or(old.0),
+        section(offsets.1, point_bytes).unwrap_or(old.1),
+        section(offsets.2, nodes.checked_mul(48)).unwrap_or(old.2),
+    )
 }

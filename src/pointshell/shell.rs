@@ -19,6 +19,11 @@ pub struct PointshellStats {
     /// Surface voxels of the mesh that the voxmap does not hold as surface (0 when the
     /// voxmap was made from the same mesh and grid).
     pub voxmap_mismatches: u64,
+    /// Points on a sheet with air on both sides: no inside voxel (voxmap value > 0) in the
+    /// 5×5×5 neighbourhood of the point's surface voxel (see `docs/POINTSHELL.md`, which also
+    /// says why not 3×3×3, and what force such a point gives). 0 when read from a version-1
+    /// `.vps`, which did not count them.
+    pub two_sided_points: u64,
 }
 
 /// A pointshell in memory.

@@ -5,6 +5,11 @@
 //! Opening maps the file, checks every checksum and the tree's structure (so the query can
 //! index without bounds surprises), and then serves the three sections as slices of the
 //! mapping.
+//!
+//! This build writes version 2 and reads versions 1 and 2. Version 2 adds one header field,
+//! `two_sided_points`; the sections are laid out alike in both (the 152-byte version-1 header
+//! is followed by 8 bytes of padding, the 160-byte version-2 header by none). A version-1 file
+//! reads with `two_sided_points = 0`.
 
 use std::path::{Path, PathBuf};
 
@@ -16,14 +21,19 @@ use crate::pointshell::{Pointshell, PointshellStats, SphereNode, SphereTree};
 
 /// First bytes of every `.vps` file.
 pub const PS_MAGIC: [u8; 8] = *b"VPSPSHL\x1a";
-/// Format version this build writes and reads.
-pub const PS_VERSION: u32 = 1;
-/// Bytes of the header.
+/// Format version this build writes; it also reads [`PS_VERSION_1`].
+pub const PS_VERSION: u32 = 2;
+/// The first format version, which this build still reads.
+pub const PS_VERSION_1: u32 = 1;
+/// Bytes of the header of version [`PS_VERSION`].
 pub const PS_HEADER_BYTES: usize = std::mem::size_of::<RawPsHeader>();
+/// Bytes of the header of version [`PS_VERSION_1`].
+pub const PS_HEADER_BYTES_V1: usize = std::mem::size_of::<RawPsHeaderV1>();
 const NODE_BYTES: u64 = std::mem::size_of::<SphereNode>() as u64;
 const ALIGN: u64 = 16;
 
-/// The header as stored: little-endian, `#[repr(C)]`, no implicit padding.
+/// The header of version 2 as stored: little-endian, `#[repr(C)]`, no implicit padding (160
+/// bytes, a multiple of the 8-byte alignment of its `u64` and `f64` fields).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct RawPsHeader {
@@ -53,6 +63,8 @@ pub struct RawPsHeader {
     pub normal_fallbacks: u64,
     /// Surface voxels the voxmap did not hold as surface.
     pub voxmap_mismatches: u64,
+    /// Points with no inside voxel in their voxel's 5×5×5 neighbourhood (new in version 2).
+    pub two_sided_points: u64,
     /// Byte offset of the points section.
     pub points_offset: u64,
     /// Byte offset of the normals section.
@@ -78,6 +90,90 @@ impl RawPsHeader {
     }
 }
 
+/// The header of version 1 as stored: [`RawPsHeader`] without `two_sided_points` (152 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct RawPsHeaderV1 {
+    /// [`PS_MAGIC`].
+    pub magic: [u8; 8],
+    /// [`PS_VERSION_1`].
+    pub version: u32,
+    /// [`PS_HEADER_BYTES_V1`].
+    pub header_bytes: u32,
+    /// Points are relative to this position of the object's frame.
+    pub origin: [f64; 3],
+    /// Voxel size the points were sampled at.
+    pub voxel_size: f64,
+    /// Number of points (and normals).
+    pub points: u64,
+    /// Number of tree nodes.
+    pub nodes: u64,
+    /// Depth of the tree.
+    pub tree_depth: u32,
+    /// Largest number of points in a leaf.
+    pub leaf_size: u32,
+    /// Points projected inside a triangle (phase 1).
+    pub interior_points: u64,
+    /// Points recovered from edges and vertices (phase 2).
+    pub boundary_points_recovered: u64,
+    /// Normals taken from the oriented triangle normal.
+    pub normal_fallbacks: u64,
+    /// Surface voxels the voxmap did not hold as surface.
+    pub voxmap_mismatches: u64,
+    /// Byte offset of the points section.
+    pub points_offset: u64,
+    /// Byte offset of the normals section.
+    pub normals_offset: u64,
+    /// Byte offset of the nodes section.
+    pub nodes_offset: u64,
+    /// Length of the whole file.
+    pub file_bytes: u64,
+    /// CRC-32 of the points section.
+    pub points_crc: u32,
+    /// CRC-32 of the normals section.
+    pub normals_crc: u32,
+    /// CRC-32 of the nodes section.
+    pub nodes_crc: u32,
+    /// CRC-32 of the header bytes before this field.
+    pub header_crc: u32,
+}
+
+impl RawPsHeaderV1 {
+    /// CRC-32 of the header bytes before `header_crc`.
+    pub fn compute_crc(&self) -> u32 {
+        let bytes = bytemuck::bytes_of(self);
+        crc32fast::hash(&bytes[..PS_HEADER_BYTES_V1 - 4])
+    }
+
+    /// The same header in version 2's layout, with no two-sided points counted.
+    fn to_v2(self) -> RawPsHeader {
+        RawPsHeader {
+            magic: self.magic,
+            version: self.version,
+            header_bytes: self.header_bytes,
+            origin: self.origin,
+            voxel_size: self.voxel_size,
+            points: self.points,
+            nodes: self.nodes,
+            tree_depth: self.tree_depth,
+            leaf_size: self.leaf_size,
+            interior_points: self.interior_points,
+            boundary_points_recovered: self.boundary_points_recovered,
+            normal_fallbacks: self.normal_fallbacks,
+            voxmap_mismatches: self.voxmap_mismatches,
+            two_sided_points: 0,
+            points_offset: self.points_offset,
+            normals_offset: self.normals_offset,
+            nodes_offset: self.nodes_offset,
+            file_bytes: self.file_bytes,
+            points_crc: self.points_crc,
+            normals_crc: self.normals_crc,
+            nodes_crc: self.nodes_crc,
+            header_crc: self.header_crc,
+        }
+    }
+}
+
 /// The header of an open `.vps`, in plain types.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointshellHeader {
@@ -95,16 +191,18 @@ pub struct PointshellHeader {
     pub tree_depth: u32,
     /// Largest number of points in a leaf.
     pub leaf_size: u32,
-    /// Generation statistics.
+    /// Generation statistics; `two_sided_points` is 0 for a version-1 file, which did not
+    /// count them.
     pub stats: PointshellStats,
     /// Length of the file.
     pub file_bytes: u64,
 }
 
-/// Where each section must lie for `points` points and `nodes` nodes.
-fn layout(points: u64, nodes: u64) -> Option<[u64; 4]> {
+/// Where each section must lie for `points` points and `nodes` nodes after a header of
+/// `header_bytes`.
+fn layout(header_bytes: usize, points: u64, nodes: u64) -> Option<[u64; 4]> {
     let up = |x: u64| x.checked_add(ALIGN - 1).map(|v| v / ALIGN * ALIGN);
-    let p = up(PS_HEADER_BYTES as u64)?;
+    let p = up(header_bytes as u64)?;
     let n = up(p.checked_add(points.checked_mul(12)?)?)?;
     let t = up(n.checked_add(points.checked_mul(12)?)?)?;
     let end = t.checked_add(nodes.checked_mul(NODE_BYTES)?)?;
@@ -128,7 +226,8 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
     }
     let n = shell.points.len() as u64;
     let nodes = shell.tree.nodes.len() as u64;
-    let [p_off, n_off, t_off, end] = layout(n, nodes).ok_or_else(|| invalid("pointshell too large".into()))?;
+    let [p_off, n_off, t_off, end] =
+        layout(PS_HEADER_BYTES, n, nodes).ok_or_else(|| invalid("pointshell too large".into()))?;
     let points: &[u8] = bytemuck::cast_slice(&shell.points);
     let normals: &[u8] = bytemuck::cast_slice(&shell.normals);
     let tree: &[u8] = bytemuck::cast_slice(&shell.tree.nodes);
@@ -146,6 +245,7 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
         boundary_points_recovered: shell.stats.boundary_points_recovered,
         normal_fallbacks: shell.stats.normal_fallbacks,
         voxmap_mismatches: shell.stats.voxmap_mismatches,
+        two_sided_points: shell.stats.two_sided_points,
         points_offset: p_off,
         normals_offset: n_off,
         nodes_offset: t_off,
@@ -210,26 +310,35 @@ impl PointshellFile {
         }
         // The version sits at offset 8 in every version: check it before the header CRC, whose
         // place a later version may move, so that such a file reads as unsupported, not corrupt.
-        if let Some(v) = bytes.get(8..12) {
-            let found = u32::from_le_bytes([v[0], v[1], v[2], v[3]]);
-            if found != PS_VERSION {
-                return Err(StorageError::UnsupportedVersion {
-                    kind: ".vps pointshell",
-                    path: path.clone(),
-                    found,
-                    supported: PS_VERSION,
-                });
-            }
+        let version = bytes.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+        if let Some(found) = version.filter(|v| *v != PS_VERSION && *v != PS_VERSION_1) {
+            return Err(StorageError::UnsupportedVersion {
+                kind: ".vps pointshell",
+                path: path.clone(),
+                found,
+                supported: PS_VERSION,
+            });
         }
-        if bytes.len() < PS_HEADER_BYTES {
+        let header_bytes = if version == Some(PS_VERSION_1) {
+            PS_HEADER_BYTES_V1
+        } else {
+            PS_HEADER_BYTES
+        };
+        if bytes.len() < header_bytes {
             return Err(StorageError::Truncated {
                 path: path.clone(),
-                expected: PS_HEADER_BYTES as u64,
+                expected: header_bytes as u64,
                 actual: bytes.len() as u64,
             });
         }
-        let h: RawPsHeader = bytemuck::pod_read_unaligned(&bytes[..PS_HEADER_BYTES]);
-        let computed = h.compute_crc();
+        // Both versions are read into version 2's header, version 1 with no two-sided points.
+        let (h, computed) = if header_bytes == PS_HEADER_BYTES_V1 {
+            let h: RawPsHeaderV1 = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
+            (h.to_v2(), h.compute_crc())
+        } else {
+            let h: RawPsHeader = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
+            (h, h.compute_crc())
+        };
         if computed != h.header_crc {
             return Err(StorageError::HeaderChecksum {
                 path: path.clone(),
@@ -237,9 +346,10 @@ impl PointshellFile {
                 computed,
             });
         }
-        let [p, n, t, end] = layout(h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
+        let [p, n, t, end] =
+            layout(header_bytes, h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
         if [h.points_offset, h.normals_offset, h.nodes_offset, h.file_bytes] != [p, n, t, end]
-            || h.header_bytes as usize != PS_HEADER_BYTES
+            || h.header_bytes as usize != header_bytes
         {
             return Err(corrupt("section offsets do not match the counts".into()));
         }
@@ -262,7 +372,7 @@ impl PointshellFile {
         // No CRC covers the padding before each section: it must be zero, so that every byte
         // of the file is checked.
         for (pad, name) in [
-            (PS_HEADER_BYTES..p, "header"),
+            (header_bytes..p, "header"),
             (sections[0].end..n, "points"),
             (sections[1].end..t, "normals"),
         ] {
@@ -295,6 +405,7 @@ impl PointshellFile {
                 boundary_points_recovered: h.boundary_points_recovered,
                 normal_fallbacks: h.normal_fallbacks,
                 voxmap_mismatches: h.voxmap_mismatches,
+                two_sided_points: h.two_sided_points,
             },
             file_bytes: h.file_bytes,
         };

@@ -904,6 +904,7 @@ fn make_pointshell(
                 "boundary_points_recovered": s.boundary_points_recovered,
                 "normal_fallbacks": s.normal_fallbacks,
                 "voxmap_mismatches": s.voxmap_mismatches,
+                "two_sided_points": s.two_sided_points,
                 "projections": report.projections,
                 "file_bytes": bytes,
                 "seconds": secs,
@@ -925,6 +926,10 @@ fn make_pointshell(
             s.boundary_points_recovered
         );
         println!("  normal fallbacks {}", s.normal_fallbacks);
+        println!(
+            "  two-sided        {} (no inside voxel next to them)",
+            s.two_sided_points
+        );
         println!("  tree             {} nodes, depth {}", ts.nodes, ts.depth);
         println!("  file             {bytes} bytes");
         println!(
@@ -960,6 +965,7 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
                 "boundary_points_recovered": s.boundary_points_recovered,
                 "normal_fallbacks": s.normal_fallbacks,
                 "voxmap_mismatches": s.voxmap_mismatches,
+                "two_sided_points": s.two_sided_points,
                 "file_bytes": h.file_bytes,
             })
         );
@@ -971,6 +977,14 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
             s.interior_points, s.boundary_points_recovered
         );
         println!("  normal fallbacks {}", s.normal_fallbacks);
+        if h.version == vps::storage::pointshell::PS_VERSION_1 {
+            println!("  two-sided        not counted (format 1)");
+        } else {
+            println!(
+                "  two-sided        {} (no inside voxel next to them)",
+                s.two_sided_points
+            );
+        }
         println!(
             "  tree             {} nodes, depth {}, leaves of at most {} points",
             h.nodes, h.tree_depth, h.leaf_size
