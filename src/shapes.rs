@@ -136,8 +136,9 @@ pub fn scattered_triangles(count: usize, extent: f64, size: f64, seed: u64) -> V
         .collect()
 }
 
-/// A multi-part assembly: a sphere, a torus, a box, a thin hollow box and an open sheet, some
-/// touching, some apart. The built-in default model of `vps demo`.
+/// A multi-part assembly: a sphere, a torus, a box, a thin hollow box and an open dome (solid
+/// by the default winding fill), some touching, some apart. The built-in default model of
+/// `vps demo`.
 pub fn demo_assembly() -> Mesh {
     let mut m = Mesh::default();
     let parts: Vec<(&str, Vec<Triangle>)> = vec![

@@ -272,7 +272,13 @@ fn normals_of_open_soups_point_inward() {
     }
     let mesh = assembly(vec![
         ("bowl", shapes::cut_sphere(DVec3::ZERO, 8.0, 32, 64, 3.0)),
-        ("cup", shapes::flipped(&shapes::open_box(DVec3::new(-6.0, 12.0, -4.0), DVec3::new(6.0, 20.0, 3.0)))),
+        (
+            "cup",
+            shapes::flipped(&shapes::open_box(
+                DVec3::new(-6.0, 12.0, -4.0),
+                DVec3::new(6.0, 20.0, 3.0),
+            )),
+        ),
         ("cracked", sphere),
     ]);
     let s = 0.3;

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::inside::{column_crossing, column_ranges, NUDGE};
-use crate::geometry::winding::{faces_down, AreaBound, hessian_bound, strip_solid_angle, strip_solid_angle_down};
+use crate::geometry::winding::{faces_down, hessian_bound, strip_solid_angle, strip_solid_angle_down, AreaBound};
 use crate::grid::{split_voxel, Grid, BRICK_SHIFT};
 use crate::mesh::Triangle;
 use crate::voxmap::mask::union_by_key;
@@ -342,7 +342,11 @@ pub fn add_object_inside(
                 vec![obj.lo[2]]
             };
             for &z in &zs {
-                let z_end = if obj.is_open() { (z + TILE).min(obj.hi[2]) } else { obj.hi[2] };
+                let z_end = if obj.is_open() {
+                    (z + TILE).min(obj.hi[2])
+                } else {
+                    obj.hi[2]
+                };
                 tiles.push(Block {
                     lo: [x.max(reach.start), y.max(ys.start), z.max(obj.lo[2])],
                     hi: [(x + TILE).min(reach.end), (y + TILE).min(ys.end), z_end],

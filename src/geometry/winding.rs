@@ -175,7 +175,10 @@ impl AreaBound {
                 let radius = t.iter().map(|v| (*v - centre).length()).fold(0.0, f64::max);
                 let area = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
                 let q = ((centre - lo) / scale * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
-                (morton(q.x as u64, q.y as u64, q.z as u64), Sphere { centre, radius, area })
+                (
+                    morton(q.x as u64, q.y as u64, q.z as u64),
+                    Sphere { centre, radius, area },
+                )
             })
             .collect();
         let mut order: Vec<usize> = (0..leaves.len()).collect();
@@ -193,7 +196,10 @@ impl AreaBound {
                         b = b.max(s.centre + s.radius);
                     }
                     let centre = (a + b) * 0.5;
-                    let radius = group.iter().map(|s| (s.centre - centre).length() + s.radius).fold(0.0, f64::max);
+                    let radius = group
+                        .iter()
+                        .map(|s| (s.centre - centre).length() + s.radius)
+                        .fold(0.0, f64::max);
                     Sphere {
                         centre,
                         radius,

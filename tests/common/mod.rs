@@ -83,7 +83,11 @@ pub fn random_part(kind: u8, c: DVec3, r: f64) -> Vec<Triangle> {
 /// some object: `|w| ≥ ½`), and of those how many have the inside ahead of the normal.
 pub fn inward_normals(mesh: &Mesh, shell: &vps::pointshell::Pointshell, step: f64, samples: usize) -> (usize, usize) {
     use rayon::prelude::*;
-    let objects: Vec<&[Triangle]> = mesh.objects.iter().map(|o| &mesh.triangles[o.triangles.clone()]).collect();
+    let objects: Vec<&[Triangle]> = mesh
+        .objects
+        .iter()
+        .map(|o| &mesh.triangles[o.triangles.clone()])
+        .collect();
     let inside = |p: DVec3| {
         objects
             .iter()

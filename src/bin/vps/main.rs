@@ -660,7 +660,7 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
     let mesh = vps::shapes::demo_assembly();
     println!(
-        "demo: built-in assembly of {} objects, {} triangles (sphere, torus, block, hollow shell, open sheet)",
+        "demo: built-in assembly of {} objects, {} triangles (sphere, torus, block, hollow shell, open dome made solid by the winding fill)",
         mesh.objects.len(),
         mesh.triangles.len()
     );
