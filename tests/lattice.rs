@@ -22,7 +22,10 @@ fn parts(s: f64, shift: DVec3) -> Mesh {
     let moved = |tris: Vec<Triangle>| tris.into_iter().map(|t| t.map(|p| p + shift)).collect::<Vec<_>>();
     if s.log2().fract() != 0.0 {
         return assembly(vec![
-            ("block", moved(shapes::cuboid(DVec3::new(0.1, 0.2, 0.0), DVec3::new(1.3, 1.1, 0.7)))),
+            (
+                "block",
+                moved(shapes::cuboid(DVec3::new(0.1, 0.2, 0.0), DVec3::new(1.3, 1.1, 0.7))),
+            ),
             ("ball", moved(shapes::sphere(DVec3::new(0.7, 0.6, 1.2), 0.3, 12, 24))),
         ]);
     }

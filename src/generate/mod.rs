@@ -211,7 +211,9 @@ fn objects_surface(
         all.extend(s.bricks);
     }
     let bricks = union_by_key(all);
-    let per_object: Vec<(ObjectsInside, bool, Vec<(u64, crate::voxmap::Mask512)>)> = mesh
+    // Per object: its inside, whether it is closed, and its interface voxels.
+    type ObjectFill = (ObjectsInside, bool, Vec<(u64, crate::voxmap::Mask512)>);
+    let per_object: Vec<ObjectFill> = mesh
         .objects
         .par_iter()
         .map(|o| {

@@ -567,7 +567,9 @@ impl ObjectColumns {
         let nbx = grid.brick_dims()[0];
         let (done, total) = (AtomicU64::new(0), mesh.objects.len() as u64);
         progress("fill", 0, total);
-        let per: Vec<(bool, Option<(usize, Range<u32>, Option<winding::WindingObject>)>)> = mesh
+        // Per object: whether it is closed, and its entry of `solid` if it has an inside.
+        type Entry = (usize, Range<u32>, Option<winding::WindingObject>);
+        let per: Vec<(bool, Option<Entry>)> = mesh
             .objects
             .par_iter()
             .enumerate()

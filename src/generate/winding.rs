@@ -46,6 +46,9 @@ const TILE: i64 = 64;
 
 const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 
+/// An edge by its two welded vertices, in order.
+type WeldedEdge = ([i64; 3], [i64; 3]);
+
 /// An edge used by the object's triangles more times one way than the other, in grid units.
 #[derive(Clone, Copy, Debug)]
 struct BoundaryEdge {
@@ -81,8 +84,8 @@ impl WindingObject {
         // One position for each welded vertex, so the boundary closes exactly into chains
         // (the strips' vertical sides then cancel in the gradient too).
         let mut at: FxHashMap<[i64; 3], DVec3> = FxHashMap::default();
-        // Net uses of each edge, keyed by its welded ends in order.
-        let mut edges: FxHashMap<([i64; 3], [i64; 3]), (i64, DVec3, DVec3)> = FxHashMap::default();
+        // Net uses of each edge, keyed by its welded ends in order, with their positions.
+        let mut edges: FxHashMap<WeldedEdge, (i64, DVec3, DVec3)> = FxHashMap::default();
         for t in tris {
             for k in 0..3 {
                 let (a, b) = (weld(t[k]), weld(t[(k + 1) % 3]));
@@ -95,7 +98,7 @@ impl WindingObject {
                 edges.entry(key).or_insert((0, pa, pb)).0 += dir;
             }
         }
-        let mut boundary: Vec<(([i64; 3], [i64; 3]), BoundaryEdge)> = edges
+        let mut boundary: Vec<(WeldedEdge, BoundaryEdge)> = edges
             .into_iter()
             .filter(|(_, e)| e.0 != 0)
             .map(|(key, (m, pa, pb))| {
@@ -112,7 +115,7 @@ impl WindingObject {
             })
             .collect();
         // Hash order is not fixed: sort, so sums run in one order and runs repeat exactly.
-        boundary.sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        boundary.sort_unstable_by_key(|x| x.0);
         let (mut glo, mut ghi) = (grid.to_grid_units(wlo), grid.to_grid_units(whi));
         if !boundary.is_empty() {
             // Beyond its box an open object's winding number can still reach ½ (doubled
@@ -507,8 +510,8 @@ impl Block {
     /// Push the halves of the block along the axes in `axes` whose extent is above one.
     fn split(&self, axes: [bool; 3], stack: &mut Vec<Block>) {
         let mut parts = vec![*self];
-        for a in 0..3 {
-            if !axes[a] || self.extent(a) < 2 {
+        for (a, &split) in axes.iter().enumerate() {
+            if !split || self.extent(a) < 2 {
                 continue;
             }
             let mid = self.lo[a] + self.extent(a) / 2;
@@ -777,8 +780,8 @@ impl Undecided {
         }
         self.count += 1;
         let mut octant = 0;
-        for a in 0..3 {
-            if v[a] >= block.lo[a] + block.extent(a) / 2 && block.extent(a) > 1 {
+        for (a, &c) in v.iter().enumerate() {
+            if c >= block.lo[a] + block.extent(a) / 2 && block.extent(a) > 1 {
                 octant |= 1 << a;
             }
         }
@@ -881,7 +884,7 @@ mod slab_tests {
     /// the surface (whose voxels need no side, so either may leave them undecided).
     #[test]
     fn slabs_give_the_same_inside_and_interface() {
-        let parts = vec![
+        let parts = [
             shapes::cut_sphere(DVec3::new(0.1, 0.2, 0.3), 3.0, 24, 48, 1.0),
             shapes::open_box(DVec3::new(3.5, -2.0, -2.0), DVec3::new(7.0, 2.0, 1.5)),
             shapes::cracked_sphere(DVec3::new(-5.0, 0.0, 0.0), 2.5, 16, 32, 0.02),
