@@ -551,7 +551,7 @@ impl Context<'_> {
 }
 
 /// Objects with more boundary edges than this build no model for blocks their triangles reach.
-const LONG_BOUNDARY: usize = 1024;
+const LONG_BOUNDARY: usize = 16384;
 
 /// Blocks of at most this many voxels that cannot get a model are done voxel by voxel.
 const SMALL_BLOCK: i64 = 8;
