@@ -23,13 +23,19 @@ use crate::voxmap::solid::ObjectsInside;
 /// an edge would count it once or twice depending on its neighbours.
 pub(crate) const NUDGE: DVec2 = DVec2::new(1.234_567e-6, 2.718_281e-6);
 
+/// A key per vertex of `tris` such that vertices closer than a billionth of the object's size
+/// share it: how the fills decide which edges meet.
+pub(crate) fn welder(tris: &[Triangle]) -> impl Fn(DVec3) -> [i64; 3] {
+    let (lo, hi) = crate::mesh::bounds_of(tris);
+    let q = ((hi - lo).max_element() * 1e-9).max(f64::MIN_POSITIVE);
+    move |p: DVec3| ((p - lo) / q).round().as_i64vec3().to_array()
+}
+
 /// Whether every edge of `tris` is shared by an even number of triangles. Vertices closer than
 /// a billionth of the object's size count as one: generated and exported meshes repeat a
 /// vertex with rounding differences (a sphere's pole computed once per triangle, say).
 pub fn is_closed(tris: &[Triangle]) -> bool {
-    let (lo, hi) = crate::mesh::bounds_of(tris);
-    let q = ((hi - lo).max_element() * 1e-9).max(f64::MIN_POSITIVE);
-    let weld = |p: DVec3| ((p - lo) / q).round().as_i64vec3().to_array();
+    let weld = welder(tris);
     let mut edges: FxHashMap<[[i64; 3]; 2], u32> = FxHashMap::default();
     edges.reserve(tris.len() * 3 / 2);
     for t in tris {

@@ -79,8 +79,7 @@ impl WindingObject {
     /// object's size count as one, as in [`super::inside::is_closed`].
     pub fn new(grid: &Grid, tris: &[Triangle]) -> WindingObject {
         let (wlo, whi) = crate::mesh::bounds_of(tris);
-        let q = ((whi - wlo).max_element() * 1e-9).max(f64::MIN_POSITIVE);
-        let weld = |p: DVec3| ((p - wlo) / q).round().as_i64vec3().to_array();
+        let weld = super::inside::welder(tris);
         // One position for each welded vertex, so the boundary closes exactly into chains
         // (the strips' vertical sides then cancel in the gradient too).
         let mut at: FxHashMap<[i64; 3], DVec3> = FxHashMap::default();
