@@ -38,10 +38,20 @@ pub enum GridError {
     /// The grid would have more voxels along an axis than the format can address.
     #[error("grid would need {0} voxels along one axis (limit {MAX_DIM}): use a larger voxel size")]
     TooLarge(u64),
+    /// The voxel size is so large that the grid's corners overflow.
+    #[error("voxel size {0:e} is too large: the grid's corners would overflow (at most {MAX_COORDINATE:e})")]
+    VoxelSizeTooLarge(f64),
+    /// A coordinate is so large that squaring it overflows.
+    #[error("coordinate {0:e} is too large: squares of coordinates must stay finite (at most {MAX_COORDINATE:e} in magnitude)")]
+    CoordinateTooLarge(f64),
     /// The grid's cross-section has more brick columns than the fill's column table allows.
     #[error("grid would have {0} columns of bricks across x and y (limit {MAX_COLUMNS}): use a larger voxel size")]
     TooManyColumns(u64),
 }
+
+/// Largest magnitude of a coordinate or a grid extent: products and squares of two such
+/// numbers (cross products, distances) stay finite in `f64`.
+pub const MAX_COORDINATE: f64 = 1e150;
 
 /// A regular grid of cubic voxels, padded and brick-aligned.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,6 +75,17 @@ impl Grid {
                 min: min.to_array(),
                 max: max.to_array(),
             });
+        }
+        if let Some(&c) = min
+            .to_array()
+            .iter()
+            .chain(&max.to_array())
+            .find(|c| c.abs() > MAX_COORDINATE)
+        {
+            return Err(GridError::CoordinateTooLarge(c));
+        }
+        if voxel_size > MAX_COORDINATE {
+            return Err(GridError::VoxelSizeTooLarge(voxel_size));
         }
         // In units of the world lattice (voxel size 1, as `to_grid_units` computes), so the
         // padding holds exactly where the voxelizer looks.

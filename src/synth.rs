@@ -33,7 +33,8 @@ use rustc_hash::FxHashMap;
 
 use crate::mesh::{Mesh, MeshError, Triangle};
 use crate::shapes::SplitMix;
-use crate::storage::{persist_synced, temp_file_beside, StorageError};
+use crate::storage::temp::{TempOutput, OTHER_TMP_PREFIX};
+use crate::storage::StorageError;
 
 /// Fewest triangles [`synth_car`] accepts: below this the car has no recognisable parts.
 pub const MIN_TRIANGLES: u64 = 10_000;
@@ -243,7 +244,7 @@ pub fn write_obj_file(mesh: &Mesh, path: &Path) -> Result<ObjFileReport, SynthEr
         source,
     };
     let compressed = path.extension().is_some_and(|e| e == "zst");
-    let tmp = temp_file_beside(path, ".vps-")?;
+    let tmp = TempOutput::beside(path, OTHER_TMP_PREFIX)?;
     let obj = {
         let mut out = BufWriter::with_capacity(1 << 20, tmp.as_file());
         let stats = if compressed {
@@ -258,7 +259,7 @@ pub fn write_obj_file(mesh: &Mesh, path: &Path) -> Result<ObjFileReport, SynthEr
         stats
     };
     let file_bytes = tmp.as_file().metadata().map_err(io_err)?.len();
-    persist_synced(tmp, path)?;
+    tmp.persist(path)?;
     Ok(ObjFileReport {
         obj,
         file_bytes,

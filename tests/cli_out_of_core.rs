@@ -7,16 +7,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{json, p, stderr, vps};
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
+use common::{json, names, p, stderr, vps};
 
 fn synth(dir: &Path, triangles: u32) -> std::path::PathBuf {
     let obj = dir.join("car.obj");

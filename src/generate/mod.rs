@@ -5,6 +5,7 @@
 //! 3. [`crate::voxmap::layers`]: chessboard distance layers around the surface;
 //! 4. signed values per brick; uniform bricks become tiles.
 
+pub mod budget;
 pub mod inside;
 pub mod navigate;
 pub mod out_of_core;
@@ -138,17 +139,24 @@ pub fn voxelize(mesh: &Mesh, params: &VoxelizeParams) -> Result<(Voxmap, Voxeliz
     voxelize_with(mesh, params, &|_| {})
 }
 
+/// The grid [`voxelize`] uses for `mesh` with `params`: the mesh's bounds with `layers + 2`
+/// voxels of margin. Fails, before anything is allocated, where the voxel size or the
+/// layers do not fit the mesh.
+pub fn grid_for(mesh: &Mesh, params: &VoxelizeParams) -> Result<Grid, GenerateError> {
+    if params.layers > MAX_LAYERS {
+        return Err(GenerateError::TooManyLayers(params.layers as u32));
+    }
+    let (lo, hi) = mesh.bounds();
+    Ok(Grid::around(lo, hi, params.voxel_size, params.layers as u32 + 2)?)
+}
+
 /// [`voxelize`], telling `phase` as each phase begins.
 pub fn voxelize_with(
     mesh: &Mesh,
     params: &VoxelizeParams,
     phase: PhaseHook,
 ) -> Result<(Voxmap, VoxelizeReport), GenerateError> {
-    if params.layers > MAX_LAYERS {
-        return Err(GenerateError::TooManyLayers(params.layers as u32));
-    }
-    let (lo, hi) = mesh.bounds();
-    let grid = Grid::around(lo, hi, params.voxel_size, params.layers as u32 + 2)?;
+    let grid = grid_for(mesh, params)?;
     let mut report = VoxelizeReport {
         triangles: mesh.triangles.len(),
         degenerate_skipped: mesh.degenerate_skipped,

@@ -41,7 +41,7 @@ use crate::voxmap::fill::{Components, UnionFind, XFace};
 use crate::voxmap::layers::distance_layers;
 use crate::voxmap::mask::union_by_key;
 use crate::voxmap::solid::{ObjectsInside, Solid};
-use crate::voxmap::{Mask512, MAX_LAYERS};
+use crate::voxmap::Mask512;
 
 /// Memory set aside for what is not counted: code, thread stacks, allocator slack, I/O buffers.
 pub const RESERVED_BYTES: u64 = 96 << 20;
@@ -133,11 +133,7 @@ pub fn voxelize_bounded(
     output: &Path,
     opts: &Bounded,
 ) -> Result<BoundedReport, GenerateError> {
-    if params.layers > MAX_LAYERS {
-        return Err(GenerateError::TooManyLayers(params.layers as u32));
-    }
-    let (lo, hi) = mesh.bounds();
-    let grid = Grid::around(lo, hi, params.voxel_size, params.layers as u32 + 2)?;
+    let grid = super::grid_for(mesh, params)?;
     let nb = grid.brick_dims();
     let plane = nb[1] as u64 * nb[2] as u64;
     let halo = (params.layers as u32).div_ceil(8);

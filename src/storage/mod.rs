@@ -14,6 +14,7 @@ pub mod format;
 mod mmap;
 pub mod pointshell;
 pub mod spill;
+pub mod temp;
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
@@ -29,6 +30,8 @@ use format::{
     align8, decode_brick, encode_brick, new_compressor, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
     HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
 };
+pub use temp::write_atomically;
+use temp::TempOutput;
 
 /// Errors in reading or writing a `.vxm` file. Each names the file and what is wrong.
 #[derive(Debug, thiserror::Error)]
@@ -889,7 +892,7 @@ impl IndexStore {
 /// was.
 pub struct VoxmapWriter {
     path: PathBuf,
-    out: Option<BufWriter<tempfile::NamedTempFile>>,
+    out: Option<BufWriter<TempOutput>>,
     grid: Grid,
     layers: u8,
     brick_count: u64,
@@ -924,15 +927,7 @@ impl VoxmapWriter {
         if layers > MAX_LAYERS {
             return Err(invalid(format!("layers is {layers}, at most {MAX_LAYERS}")));
         }
-        let tmp = temp_file_beside(&path, spill::VXM_TMP_PREFIX)?;
-        // The lock tells another run's `spill::clean_stale` that this file is in use; the
-        // system drops it when the file closes, even if the process is killed.
-        if let Err(e) = tmp.as_file().try_lock() {
-            tracing::warn!(
-                "cannot lock {} ({e}); another vps run cleaning this directory could remove it",
-                tmp.path().display()
-            );
-        }
+        let tmp = TempOutput::beside(&path, temp::VXM_TMP_PREFIX)?;
         let compressor = new_compressor().map_err(|source| StorageError::Io {
             action: "set up zstd for",
             path: path.clone(),
@@ -1187,7 +1182,7 @@ impl VoxmapWriter {
             .map_err(self.io("seek in temporary file for"))?;
         tmp.write_all(bytemuck::bytes_of(&h))
             .map_err(self.io("write header of"))?;
-        persist_synced(tmp, &self.path)?;
+        tmp.persist(&self.path)?;
         Ok(WriteReport {
             file_bytes: h.file_bytes,
             uncompressed_bytes: counts.bricks_stored * BRICK_VOXELS as u64,
@@ -1212,60 +1207,6 @@ pub fn directory_of(path: &Path) -> &Path {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     }
-}
-
-/// A temporary file in the directory of `path`, so that renaming it over `path` is atomic.
-/// Temporary files are private by default; the finished file should be readable like any
-/// other the user creates (the umask still applies).
-pub(crate) fn temp_file_beside(path: &Path, prefix: &str) -> Result<tempfile::NamedTempFile, StorageError> {
-    let dir = directory_of(path).to_path_buf();
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(prefix).suffix(".tmp");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    builder.tempfile_in(&dir).map_err(|source| StorageError::Io {
-        action: "create a temporary file in",
-        path: dir,
-        source,
-    })
-}
-
-/// Sync a finished temporary file, rename it over `path` and sync the directory, so that
-/// after a crash `path` holds either the old file or the whole new one.
-pub(crate) fn persist_synced(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), StorageError> {
-    let io = |action, source| StorageError::Io {
-        action,
-        path: path.to_path_buf(),
-        source,
-    };
-    tmp.as_file().sync_all().map_err(|e| io("sync temporary file for", e))?;
-    tmp.persist(path).map_err(|e| io("rename temporary file to", e.error))?;
-    sync_parent(path);
-    Ok(())
-}
-
-/// Write `bytes` to `path` atomically: a temporary file beside it, synced, then renamed.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StorageError> {
-    let mut tmp = temp_file_beside(path, ".vps-")?;
-    tmp.write_all(bytes).map_err(|source| StorageError::Io {
-        action: "write temporary file for",
-        path: path.to_path_buf(),
-        source,
-    })?;
-    persist_synced(tmp, path)
-}
-
-/// Sync the directory holding `path`, so a rename into it is durable.
-fn sync_parent(path: &Path) {
-    #[cfg(unix)]
-    if let Ok(d) = File::open(directory_of(path)) {
-        let _ = d.sync_all();
-    }
-    #[cfg(not(unix))]
-    let _ = path;
 }
 
 /// Write `voxmap` to `path` atomically, compressing its bricks in parallel.

@@ -1,15 +1,14 @@
 //! Spill files of out-of-core runs, and the clean-up after runs that were killed.
 //!
 //! A run keeps its spill files in a private `.vps-spill-<random>` directory and holds an
-//! exclusive advisory lock on the `lock` file inside it while it lives; [`VoxmapWriter`]
-//! likewise locks its `.vxm-<random>.tmp` output. The operating system drops a process's
+//! exclusive advisory lock on the `lock` file inside it while it lives; every temporary
+//! output ([`super::temp::TempOutput`]: `.vxm-<random>.tmp`, `.vps-<random>.tmp`) is
+//! locked likewise. The operating system drops a process's
 //! locks when it dies, however it dies (SIGKILL included), so at the next start
 //! [`clean_stale`] can tell what a dead run left behind from what a live run is using.
 //!
 //! The locks are advisory (`flock` on Unix, `LockFileEx` on Windows) and only mean
 //! something between cooperating `vps` processes.
-//!
-//! [`VoxmapWriter`]: super::VoxmapWriter
 
 use std::fs::{self, File, TryLockError};
 use std::io;
@@ -20,11 +19,7 @@ use super::StorageError;
 
 /// Name prefix of spill directories.
 const SPILL_PREFIX: &str = ".vps-spill-";
-/// Name prefix of the temporary file a [`super::VoxmapWriter`] writes; `temp_file_beside`
-/// adds the random part and the [`VXM_TMP_SUFFIX`].
-pub(crate) const VXM_TMP_PREFIX: &str = ".vxm-";
-/// Name suffix `temp_file_beside` gives temporary files.
-const VXM_TMP_SUFFIX: &str = ".tmp";
+use super::temp::{OTHER_TMP_PREFIX, TMP_SUFFIX, VXM_TMP_PREFIX};
 /// The lock file in a spill directory; it only ever exists locked by a live owner.
 const LOCK: &str = "lock";
 /// The lock file before it is locked and renamed to [`LOCK`].
@@ -51,6 +46,17 @@ pub struct SpillDir {
     // which Windows needs (it cannot delete an open file).
     _lock: File,
     dir: tempfile::TempDir,
+    _registered: RegisteredDir,
+}
+
+/// A spill directory's entry in the list of what is in flight, dropped with it.
+#[derive(Debug)]
+struct RegisteredDir(PathBuf);
+
+impl Drop for RegisteredDir {
+    fn drop(&mut self) {
+        super::temp::unregister_dir(&self.0);
+    }
 }
 
 impl SpillDir {
@@ -74,7 +80,13 @@ impl SpillDir {
         }
         let path = dir.path().join(LOCK);
         fs::rename(&new, &path).map_err(io_error("rename lock file to", &path))?;
-        Ok(SpillDir { _lock: lock, dir })
+        super::temp::register_dir(dir.path())?;
+        let registered = RegisteredDir(dir.path().to_path_buf());
+        Ok(SpillDir {
+            _lock: lock,
+            dir,
+            _registered: registered,
+        })
     }
 
     /// The directory.
@@ -94,7 +106,7 @@ impl SpillDir {
     /// Release the lock but keep the directory, as a killed run would leave it.
     #[cfg(test)]
     fn leak_for_test(self) -> PathBuf {
-        let SpillDir { _lock: lock, dir } = self;
+        let SpillDir { _lock: lock, dir, .. } = self;
         drop(lock);
         dir.keep()
     }
@@ -105,14 +117,14 @@ impl SpillDir {
 pub struct StaleReport {
     /// Spill directories of dead runs.
     pub dirs: usize,
-    /// Temporary `.vxm` files of dead writers.
+    /// Temporary outputs (`.vxm-*.tmp`, `.vps-*.tmp`) of dead writers.
     pub files: usize,
     /// Bytes of the files removed, both kinds together.
     pub bytes: u64,
 }
 
 /// Remove what runs killed before they could clean up left in `dir`: their spill
-/// directories and temporary `.vxm` files, recognised by name and by nobody holding their
+/// directories and temporary outputs, recognised by name and by nobody holding their
 /// lock. Only the entries of `dir` itself are looked at; symbolic links are never
 /// followed or removed, nor anything else. A missing `dir` has nothing stale; an empty
 /// one is the current directory, as the parent of a bare file name.
@@ -141,8 +153,12 @@ pub fn clean_stale(dir: &Path) -> Result<StaleReport, StorageError> {
         let path = entry.path();
         let (cleaned, count) = if kind.is_dir() && is_random_name(name, SPILL_PREFIX, "") {
             (clean_spill_dir(&path), &mut report.dirs)
-        } else if kind.is_file() && is_random_name(name, VXM_TMP_PREFIX, VXM_TMP_SUFFIX) {
-            (clean_vxm_tmp(&path), &mut report.files)
+        } else if kind.is_file()
+            && [VXM_TMP_PREFIX, OTHER_TMP_PREFIX]
+                .iter()
+                .any(|prefix| is_random_name(name, prefix, TMP_SUFFIX))
+        {
+            (clean_temp_output(&path), &mut report.files)
         } else {
             continue;
         };
@@ -189,8 +205,8 @@ fn clean_spill_dir(path: &Path) -> Result<Option<u64>, StorageError> {
     removed(fs::remove_dir_all(path), bytes, "remove stale spill directory", path)
 }
 
-/// Remove the temporary `.vxm` at `path` if no writer holds it.
-fn clean_vxm_tmp(path: &Path) -> Result<Option<u64>, StorageError> {
+/// Remove the temporary output at `path` if no writer holds it.
+fn clean_temp_output(path: &Path) -> Result<Option<u64>, StorageError> {
     if !nobody_locks(path) {
         return Ok(None);
     }
@@ -357,7 +373,7 @@ mod tests {
     fn vxm_tmp_files(dir: &Path) -> Vec<String> {
         names(dir)
             .into_iter()
-            .filter(|n| is_random_name(n, VXM_TMP_PREFIX, VXM_TMP_SUFFIX))
+            .filter(|n| is_random_name(n, VXM_TMP_PREFIX, TMP_SUFFIX))
             .collect()
     }
 

@@ -1,27 +1,32 @@
 //! `vps voxelize --memory-limit`: the out-of-core path, with progress, Ctrl-C and cleanup.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use vps::generate::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
 use vps::generate::{Fill, GenerateError, VoxelizeParams};
+use vps::mesh::Mesh;
 use vps::storage::directory_of;
-use vps::storage::spill::clean_stale;
 
-use crate::{load_mesh, warn_fill, Summary};
+use crate::{interrupt, load_mesh, warn_fill, Summary};
 
-/// Set by Ctrl-C or SIGTERM; the run stops at its next chunk or slab and cleans up.
-static CANCEL: AtomicBool = AtomicBool::new(false);
+/// Where the mesh comes from: a file to load within the limit, or one already loaded.
+pub enum Input<'a> {
+    /// An OBJ or scene file.
+    Path(&'a Path),
+    /// A mesh in memory.
+    Loaded(Mesh),
+}
 
-/// Voxelize `mesh_path` into `output` in at most `limit` bytes.
+/// Voxelize `input` into `output` in at most `limit` bytes.
 pub fn run(
-    mesh_path: &Path,
+    input: Input,
     params: &VoxelizeParams,
     output: &Path,
     limit: u64,
@@ -31,32 +36,16 @@ pub fn run(
     let out_dir = directory_of(output).to_path_buf();
     let spill_dir = tmp_dir.map(Path::to_path_buf).unwrap_or_else(|| out_dir.clone());
     // What an interrupted run left: its spill directory and its unfinished output.
-    let mut dirs = vec![out_dir.clone()];
+    interrupt::clean_dir(&out_dir)?;
     if spill_dir != out_dir {
-        dirs.push(spill_dir.clone());
+        interrupt::clean_dir(&spill_dir)?;
     }
-    for d in &dirs {
-        let stale = clean_stale(d).with_context(|| format!("cleaning stale spill files in {}", d.display()))?;
-        if stale.dirs + stale.files > 0 {
-            eprintln!(
-                "note: removed {} spill directories and {} unfinished outputs ({} bytes) left in {} by an interrupted run",
-                stale.dirs,
-                stale.files,
-                stale.bytes,
-                d.display()
-            );
-        }
-    }
-    ctrlc::set_handler(|| {
-        if CANCEL.swap(true, Ordering::SeqCst) {
-            // A second interrupt: stop now; the next run removes what is left.
-            std::process::exit(130);
-        }
-        eprintln!("\ninterrupted: stopping and removing temporary files (again to stop at once)");
-    })
-    .context("installing the Ctrl-C handler")?;
+    let cancel = interrupt::cancel_flag();
 
-    let mesh = load_mesh(mesh_path)?;
+    let mesh = match input {
+        Input::Path(path) => load_mesh(path, Some(limit.saturating_sub(RESERVED_BYTES)))?,
+        Input::Loaded(mesh) => mesh,
+    };
     let start = Instant::now();
     let pb = ProgressBar::new(0);
     pb.set_style(
@@ -88,7 +77,7 @@ pub fn run(
     };
     let opts = Bounded {
         spill_dir: Some(spill_dir),
-        cancel: Some(&CANCEL),
+        cancel: Some(cancel),
         progress: &progress,
         ..Bounded::new(limit)
     };
@@ -97,15 +86,15 @@ pub fn run(
     let report = match result {
         Ok(r) => r,
         Err(GenerateError::Cancelled) => {
-            eprintln!(
+            errln!(
                 "interrupted: {} was not written; temporary files removed",
                 output.display()
             );
-            std::process::exit(130);
+            std::process::exit(interrupt::INTERRUPTED);
         }
         Err(e) => return Err(e).with_context(|| format!("voxelizing into {}", output.display())),
     };
-    warn_fill(&report.voxelize, params, &mesh);
+    warn_fill(&report.voxelize, params, &mesh)?;
     let grid = report.grid.context("the report names its grid")?;
     let mib = |b: u64| b as f64 / (1 << 20) as f64;
     let extra_json = json!({
@@ -143,6 +132,5 @@ pub fn run(
         write: &report.write,
         secs: start.elapsed().as_secs_f64(),
     };
-    summary.print(json, Some((extra_json, lines)));
-    Ok(())
+    summary.print(json, Some((extra_json, lines)))
 }

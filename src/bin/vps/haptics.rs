@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
+
 use clap::Args;
 use glam::DVec3;
 use serde_json::{json, Value};
@@ -162,7 +163,7 @@ pub fn run_contact(a: ContactArgs) -> Result<()> {
     let voxmap = open_voxmap(&a.voxmap)?;
     let shell = open_pointshell(&a.pointshell)?;
     if a.brute_force && a.budget_us.is_some() {
-        eprintln!("note: --brute-force tests every point; --budget-us is ignored");
+        errln!("note: --brute-force tests every point; --budget-us is ignored");
     }
     let query = if a.brute_force { contact_brute_force } else { contact };
     let c = query(&voxmap, &shell, &pose, &params).with_context(|| {
@@ -186,29 +187,29 @@ pub fn run_contact(a: ContactArgs) -> Result<()> {
         if let (Some(m), Value::Object(e)) = (j.as_object_mut(), extra) {
             m.extend(e);
         }
-        println!("{j}");
+        outln!("{j}");
         return Ok(());
     }
-    println!(
+    outln!(
         "{} at pose {} on {}",
         a.pointshell.display(),
         pose.to_text(),
         a.voxmap.display()
     );
-    println!(
+    outln!(
         "  in contact       {} of {} points tested ({} in the pointshell)",
         c.points_in_contact,
         c.points_tested,
         shell.points().len()
     );
-    println!("  force            {}  |F| = {:.6e}", vec3(c.force), c.force.length());
-    println!(
+    outln!("  force            {}  |F| = {:.6e}", vec3(c.force), c.force.length());
+    outln!(
         "  torque           {}  |T| = {:.6e}  (about the pointshell origin, voxmap frame)",
         vec3(c.torque),
         c.torque.length()
     );
-    println!("  max penetration  {:.6e}", c.max_penetration);
-    println!(
+    outln!("  max penetration  {:.6e}", c.max_penetration);
+    outln!(
         "  sphere tree      {} nodes tested, {} culled{}",
         c.nodes_tested,
         c.nodes_culled,
@@ -218,11 +219,14 @@ pub fn run_contact(a: ContactArgs) -> Result<()> {
             ""
         }
     );
-    println!("  time             {:.1} µs", c.micros);
+    outln!("  time             {:.1} µs", c.micros);
     if !c.complete {
-        println!(
+        outln!(
             "  budget ran out   {} nodes ({} points) approximated; |ΔF| <= {:.3e}, |ΔT| <= {:.3e}",
-            c.nodes_approximated, c.points_approximated, c.force_error_bound, c.torque_error_bound
+            c.nodes_approximated,
+            c.points_approximated,
+            c.force_error_bound,
+            c.torque_error_bound
         );
     }
     Ok(())
@@ -418,7 +422,7 @@ fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
         "static sphere",
         vps::shapes::sphere(DVec3::ZERO, big_r, rings, 2 * rings),
     )?;
-    eprintln!(
+    errln!(
         "builtin: voxelizing a sphere of radius {big_r} ({} triangles) at voxel size {s:.4}: grid {} × {} × {} = {} voxels",
         big.triangles.len(),
         grid.dims[0],
@@ -435,6 +439,7 @@ fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
     let t = Instant::now();
     let (vm, _) = voxelize_with(&big, &vparams, &|_| {})?;
     let vxm = dir.join("builtin_static.vxm");
+    crate::interrupt::clean_beside(&vxm)?;
     let w = write_voxmap(&vxm, &vm).with_context(|| format!("writing {}", vxm.display()))?;
     let voxmap_seconds = t.elapsed().as_secs_f64();
     let counts = vm.counts();
@@ -448,7 +453,7 @@ fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
         "moving sphere",
         vps::shapes::sphere(DVec3::ZERO, small_r, rings, 2 * rings),
     )?;
-    eprintln!(
+    errln!(
         "builtin: pointshell of a sphere of radius {small_r} ({} triangles) at voxel size {v:.4}",
         small.triangles.len()
     );
@@ -538,7 +543,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
             }
         };
         let b = build_builtin(&dir, a.points, a.grid_voxels)?;
-        eprintln!("builtin: built in {:.2} s", b.seconds);
+        errln!("builtin: built in {:.2} s", b.seconds);
         (b.voxmap.clone(), b.pointshell.clone(), Some(b))
     } else {
         // clap requires both without --builtin.
@@ -632,6 +637,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
             samples.len(),
             shell.points().len()
         );
+        crate::interrupt::clean_beside(plot)?;
         plot_series_png(
             &title,
             "query index",
@@ -712,13 +718,13 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
             "plot": a.plot.as_ref().map(|p| p.display().to_string()),
             "peak_rss_bytes": rss,
         });
-        println!("{j}");
+        outln!("{j}");
         return Ok(());
     }
 
     if let Some(b) = &built {
         let i = &b.info;
-        println!(
+        outln!(
             "built-in files, made in {:.2} s (voxmap {:.2} s, pointshell {:.2} s){}",
             b.seconds,
             i["voxmap_seconds"].as_f64().unwrap_or(0.0),
@@ -728,17 +734,18 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
                 None => " in a temporary directory".to_string(),
             }
         );
-        println!(
+        outln!(
             "  static object    sphere of radius {}, {} surface voxels",
-            i["static_sphere_radius"], i["surface_voxels"]
+            i["static_sphere_radius"],
+            i["surface_voxels"]
         );
-        println!(
+        outln!(
             "  moving object    sphere of radius {}, sampled at voxel size {:.4}",
             i["moving_sphere_radius"],
             i["pointshell_voxel_size"].as_f64().unwrap_or(0.0)
         );
     }
-    println!(
+    outln!(
         "voxmap       {}: {} × {} × {} = {} voxels of {}, {} layers, {} bricks stored, {:.1} MiB",
         vxm_path.display(),
         g.dims[0],
@@ -750,7 +757,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         vh.counts.bricks_stored,
         mib(vh.file_bytes)
     );
-    println!(
+    outln!(
         "pointshell   {}: {} points, {} tree nodes, voxel size {}, {:.1} MiB",
         vps_path.display(),
         ph.points,
@@ -758,7 +765,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         ph.voxel_size,
         mib(ph.file_bytes)
     );
-    println!(
+    outln!(
         "trajectory   {source}: {} poses{}",
         poses.len(),
         if a.repeat > 1 {
@@ -767,7 +774,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
             String::new()
         }
     );
-    println!(
+    outln!(
         "mode         {}, stiffness {}",
         match a.budget_us {
             Some(b) => format!("time-critical, budget {b} µs per query"),
@@ -775,21 +782,24 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         },
         params.stiffness
     );
-    print_figures("sphere tree", &fig);
+    print_figures("sphere tree", &fig)?;
     if let Some(b) = a.budget_us {
         let over = samples.iter().filter(|s| s.micros > b as f64).count();
-        println!(
+        outln!(
             "  budget        {} queries ran out (approximated; max |ΔF| bound {:.3e}), {over} took longer than {b} µs",
-            fig.incomplete_queries, fig.max_force_error_bound
+            fig.incomplete_queries,
+            fig.max_force_error_bound
         );
     }
-    println!(
+    outln!(
         "  cache         {} hits, {} misses, {} entries",
-        cache.hits, cache.misses, cache.entries
+        cache.hits,
+        cache.misses,
+        cache.entries
     );
     if let Some((b, mismatches)) = &brute {
-        print_figures("brute force", b);
-        println!(
+        print_figures("brute force", b)?;
+        outln!(
             "  speed-up      sphere tree {:.1}× faster than brute force (mean latency; p50 {:.1}×){}",
             b.mean_us / fig.mean_us.max(1e-9),
             b.p50_us / fig.p50_us.max(1e-9),
@@ -805,10 +815,10 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         );
     }
     if let Some(p) = &a.plot {
-        println!("plot         {}", p.display());
+        outln!("plot         {}", p.display());
     }
     if let Some(r) = rss {
-        println!("peak RSS     {:.1} MiB", mib(r));
+        outln!("peak RSS     {:.1} MiB", mib(r));
     }
     if let Some((_, m)) = &brute {
         if *m > 0 {
@@ -818,25 +828,32 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_figures(what: &str, f: &Figures) {
-    println!(
+fn print_figures(what: &str, f: &Figures) -> Result<()> {
+    outln!(
         "{what}: {} queries in {:.3} s, {} in contact ({:.1}%)",
         f.queries,
         f.total_seconds,
         f.queries_in_contact,
         100.0 * f.queries_in_contact as f64 / f.queries.max(1) as f64
     );
-    println!(
+    outln!(
         "  latency µs    p50 {:.1}   p99 {:.1}   max {:.1}   mean {:.1}   first (cold cache) {:.1}",
-        f.p50_us, f.p99_us, f.max_us, f.mean_us, f.first_us
+        f.p50_us,
+        f.p99_us,
+        f.max_us,
+        f.mean_us,
+        f.first_us
     );
     if let Some(us) = f.first_contact_us {
-        println!("  first query in contact (cold bricks) {us:.1} µs");
+        outln!("  first query in contact (cold bricks) {us:.1} µs");
     }
-    println!(
+    outln!(
         "  points tested per query: mean {:.0}, max {}; {:.3e} points per ms",
-        f.points_tested_mean, f.points_tested_max, f.points_per_ms
+        f.points_tested_mean,
+        f.points_tested_max,
+        f.points_per_ms
     );
+    Ok(())
 }
 
 #[cfg(test)]

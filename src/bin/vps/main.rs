@@ -1,11 +1,15 @@
 //! `vps`: the command line. Thin: parse, call the library, print.
 
+#[macro_use]
+mod output;
 mod bounded;
 mod haptics;
+mod interrupt;
 mod scene;
 
 use std::io::{BufRead, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
@@ -14,7 +18,7 @@ use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use vps::generate::{voxelize_with, Fill, Navigation, VoxelizeParams, VoxelizeReport};
+use vps::generate::{budget, voxelize_with, Fill, Navigation, VoxelizeParams, VoxelizeReport};
 use vps::mesh::Mesh;
 use vps::storage::pointshell::{write_ply, write_pointshell, PointshellFile, PS_MAGIC};
 use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
@@ -204,15 +208,31 @@ enum Command {
     Scene(scene::SceneCommand),
 }
 
-fn main() {
+fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("VPS_LOG").unwrap_or_else(|_| "warn".into()))
         .init();
-    let cli = Cli::parse();
-    if let Err(e) = run(cli) {
-        eprintln!("error: {}", error_chain(&e));
-        std::process::exit(1);
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Help and version go to stdout, usage errors to stderr; either may fail too.
+            let code = if e.print().is_ok() { e.exit_code() } else { 1 };
+            return ExitCode::from(code.clamp(0, 255) as u8);
+        }
+    };
+    let result = interrupt::install().and_then(|()| run(cli)).and_then(|()| {
+        std::io::stdout().flush().map_err(output::stdout_failed)?;
+        Ok(())
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        // The reader went away (`vps info x.vxm | head -1`): nothing to say, and no one to say it to.
+        Err(e) if output::is_broken_pipe(&e) => ExitCode::FAILURE,
+        Err(e) => {
+            let _ = writeln!(std::io::stderr().lock(), "error: {}", error_chain(&e));
+            ExitCode::FAILURE
+        }
     }
 }
 
@@ -250,9 +270,31 @@ fn run(cli: Cli) -> Result<()> {
                 FillArg::Scene => Fill::Scene,
             };
             if let Some(limit) = memory_limit {
-                return bounded::run(&mesh, &params, &output, limit, tmp_dir.as_deref(), json);
+                return bounded::run(
+                    bounded::Input::Path(&mesh),
+                    &params,
+                    &output,
+                    limit,
+                    tmp_dir.as_deref(),
+                    json,
+                );
             }
-            let mesh = load_mesh(&mesh)?;
+            let budget = memory_budget()?;
+            let mesh = load_mesh(&mesh, budget)?;
+            vps::generate::grid_for(&mesh, &params)?;
+            let estimate = budget::voxelize_in_memory(&mesh, &params);
+            if let Some(budget) = budget.filter(|&b| estimate.peak_bytes > b) {
+                errln!(
+                    "note: in memory this run would need about {} ({:.2e} surface voxels expected), more than the default \
+                     budget of {} (VPS_MEMORY_BUDGET, or half this machine's memory): generating out of core within that budget instead \
+                     (--memory-limit sets another)",
+                    human_bytes(estimate.peak_bytes),
+                    estimate.surface_voxels,
+                    human_bytes(budget)
+                );
+                let input = bounded::Input::Loaded(mesh);
+                return bounded::run(input, &params, &output, budget, tmp_dir.as_deref(), json);
+            }
             let (vm, report, write, secs) = voxelize_to_file(&mesh, &params, &output)?;
             let summary = Summary {
                 output: &output,
@@ -262,8 +304,7 @@ fn run(cli: Cli) -> Result<()> {
                 write: &write,
                 secs,
             };
-            summary.print(json, None);
-            Ok(())
+            summary.print(json, None)
         }
         Command::Pointshell {
             mesh,
@@ -276,8 +317,9 @@ fn run(cli: Cli) -> Result<()> {
         } => make_pointshell(&mesh, voxel_size, &output, voxmap.as_deref(), layers, leaf_size, json),
         Command::Export { file, ply } => {
             let f = open_pointshell(&file)?;
+            interrupt::clean_beside(&ply)?;
             let bytes = write_ply(&ply, f.header().origin, f.points(), f.normals())?;
-            println!("wrote {} ({} points, {bytes} bytes)", ply.display(), f.points().len());
+            outln!("wrote {} ({} points, {bytes} bytes)", ply.display(), f.points().len());
             Ok(())
         }
         Command::Info { file, json } => {
@@ -293,9 +335,13 @@ fn run(cli: Cli) -> Result<()> {
             let r = f
                 .verify()
                 .with_context(|| format!("{} failed verification", file.display()))?;
-            println!(
+            outln!(
                 "ok: {} bricks and {} inside runs checked, {} surface voxels, {} inner voxels, {} bytes",
-                r.bricks_checked, r.inside_runs, r.counts.surface_voxels, r.counts.inner_voxels, r.file_bytes
+                r.bricks_checked,
+                r.inside_runs,
+                r.counts.surface_voxels,
+                r.counts.inner_voxels,
+                r.file_bytes
             );
             Ok(())
         }
@@ -308,7 +354,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let f = open(&file)?;
             let (w, h) = slice(&f, axis, at, index, &output)?;
-            println!("wrote {} ({w}×{h} voxels)", output.display());
+            outln!("wrote {} ({w}×{h} voxels)", output.display());
             Ok(())
         }
         Command::Demo { out_dir, voxel_size } => demo(&out_dir, voxel_size),
@@ -349,8 +395,36 @@ fn spinner(msg: &str) -> ProgressBar {
     pb
 }
 
-/// An OBJ mesh, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh.
-fn load_mesh(path: &Path) -> Result<Mesh> {
+/// The memory a run with no `--memory-limit` may use: `VPS_MEMORY_BUDGET` (a size, as
+/// `--memory-limit` takes) or half the machine's memory; `None` when neither is known.
+fn memory_budget() -> Result<Option<u64>> {
+    match std::env::var("VPS_MEMORY_BUDGET") {
+        Ok(text) => parse_bytes(&text)
+            .map(Some)
+            .map_err(|e| anyhow::anyhow!("VPS_MEMORY_BUDGET: {e}")),
+        Err(_) => Ok(budget::default_budget()),
+    }
+}
+
+/// A byte count for people: `1.5 GiB`.
+fn human_bytes(b: u64) -> String {
+    let units = ["bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    let mut v = b as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < units.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{b} bytes")
+    } else {
+        format!("{v:.1} {}", units[u])
+    }
+}
+
+/// An OBJ mesh, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh,
+/// refused as soon as the triangles kept need more than `limit` bytes.
+fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
     let pb = spinner(&format!("reading {}", path.display()));
     let mesh = if vps::scene::is_scene_path(path) {
         let scene = vps::scene::Scene::load(path).context("loading the scene")?;
@@ -359,8 +433,15 @@ fn load_mesh(path: &Path) -> Result<Mesh> {
         Mesh::load_obj(path)?
     };
     pb.finish_and_clear();
+    if let Some(limit) = limit.filter(|&l| budget::mesh_bytes(&mesh) > l) {
+        bail!(
+            "the mesh alone needs {} in memory, more than the {} this run may use",
+            human_bytes(budget::mesh_bytes(&mesh)),
+            human_bytes(limit)
+        );
+    }
     if mesh.degenerate_skipped > 0 {
-        eprintln!("note: skipped {} degenerate triangles", mesh.degenerate_skipped);
+        errln!("note: skipped {} degenerate triangles", mesh.degenerate_skipped);
     }
     Ok(mesh)
 }
@@ -370,6 +451,7 @@ fn voxelize_to_file(
     params: &VoxelizeParams,
     output: &Path,
 ) -> Result<(Voxmap, VoxelizeReport, WriteReport, f64)> {
+    interrupt::clean_beside(output)?;
     let start = Instant::now();
     let pb = spinner("voxelizing");
     let phase = |p: &str| pb.set_message(format!("voxelizing: {p}"));
@@ -377,26 +459,26 @@ fn voxelize_to_file(
     pb.set_message(format!("writing {}", output.display()));
     let write = write_voxmap(output, &vm).with_context(|| format!("writing {}", output.display()))?;
     pb.finish_and_clear();
-    warn_fill(&report, params, mesh);
+    warn_fill(&report, params, mesh)?;
     Ok((vm, report, write, start.elapsed().as_secs_f64()))
 }
 
 /// Warn when nothing is inside, or when some objects add only their surface.
-fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) {
+fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) -> Result<()> {
     if report.leaks {
         match params.fill {
-            Fill::Scene => eprintln!(
+            Fill::Scene => errln!(
                 "warning: the model leaks: the outside flood fill reached every non-surface voxel, so nothing is inside \
                  (the mesh is not closed at voxel size {}); inner_voxels is 0",
                 params.voxel_size
             ),
-            Fill::Objects => eprintln!(
+            Fill::Objects => errln!(
                 "warning: nothing is inside: {} of {} objects are not closed (an edge not shared by two triangles), \
                  and the closed ones enclose no voxel centre; try --fill winding",
                 report.open_objects,
                 mesh.objects.len()
             ),
-            Fill::Winding => eprintln!(
+            Fill::Winding => errln!(
                 "warning: nothing is inside: no voxel centre has a winding number of magnitude ½ or more \
                  ({} of {} objects are open); the mesh may be sheets with no volume",
                 report.open_objects,
@@ -405,13 +487,13 @@ fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) {
         }
     } else if report.open_objects > 0 {
         match params.fill {
-            Fill::Objects => eprintln!(
+            Fill::Objects => errln!(
                 "note: {} of {} objects are not closed and add only their surface (--fill objects); \
                  --fill winding gives them an inside",
                 report.open_objects,
                 mesh.objects.len()
             ),
-            Fill::Winding => eprintln!(
+            Fill::Winding => errln!(
                 "note: {} of {} objects are open (holes, cracks or triangles wound against their neighbours); \
                  the winding fill decided their inside by winding number (|w| >= 1/2)",
                 report.open_objects,
@@ -420,6 +502,7 @@ fn warn_fill(report: &VoxelizeReport, params: &VoxelizeParams, mesh: &Mesh) {
             Fill::Scene => {}
         }
     }
+    Ok(())
 }
 
 /// What `vps voxelize` prints.
@@ -434,7 +517,7 @@ struct Summary<'a> {
 
 impl Summary<'_> {
     /// Print, with `extra` fields (out-of-core figures) added to the JSON object and lines.
-    fn print(&self, json: bool, extra: Option<(serde_json::Value, Vec<String>)>) {
+    fn print(&self, json: bool, extra: Option<(serde_json::Value, Vec<String>)>) -> Result<()> {
         let (output, g, r, w, secs) = (self.output, self.grid, self.report, self.write, self.secs);
         let c = w.counts;
         let sat_per_surface = r.nav.sat_tests as f64 / r.surface_voxels.max(1) as f64;
@@ -465,14 +548,15 @@ impl Summary<'_> {
             if let (Some((serde_json::Value::Object(more), _)), Some(obj)) = (&extra, j.as_object_mut()) {
                 obj.extend(more.clone());
             }
-            println!("{j}");
+            outln!("{j}");
         } else {
-            println!("wrote {}", output.display());
-            println!(
+            outln!("wrote {}", output.display());
+            outln!(
                 "  triangles        {} ({} degenerate skipped)",
-                r.triangles, r.degenerate_skipped
+                r.triangles,
+                r.degenerate_skipped
             );
-            println!(
+            outln!(
                 "  grid             {} × {} × {} = {} voxels of {}",
                 g.dims[0],
                 g.dims[1],
@@ -480,30 +564,32 @@ impl Summary<'_> {
                 g.voxel_count(),
                 g.voxel_size
             );
-            println!(
+            outln!(
                 "  surface voxels   {} ({:.2} SAT tests each)",
-                c.surface_voxels, sat_per_surface
+                c.surface_voxels,
+                sat_per_surface
             );
-            println!(
+            outln!(
                 "  inner voxels     {}{}",
                 c.inner_voxels,
                 if r.leaks { " (model leaks)" } else { "" }
             );
-            println!("  bricks stored    {}", c.bricks_stored);
-            println!("  file             {} bytes", w.file_bytes);
-            println!(
+            outln!("  bricks stored    {}", c.bricks_stored);
+            outln!("  file             {} bytes", w.file_bytes);
+            outln!(
                 "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3})",
                 r.t_surface.as_secs_f64(),
                 r.t_fill.as_secs_f64(),
                 r.t_layers.as_secs_f64()
             );
             if let Some(rss) = peak_rss_bytes() {
-                println!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);
+                outln!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);
             }
             for line in extra.map(|e| e.1).unwrap_or_default() {
-                println!("  {line}");
+                outln!("  {line}");
             }
         }
+        Ok(())
     }
 }
 
@@ -537,28 +623,31 @@ fn info(path: &Path, json: bool) -> Result<()> {
             "compression_ratio": ratio,
             "bytes_per_stored_voxel": h.payload_bytes as f64 / uncompressed.max(1) as f64,
         });
-        println!("{j}");
+        outln!("{j}");
     } else {
-        println!("{}: voxmap format {}", path.display(), h.version);
-        println!(
+        outln!("{}: voxmap format {}", path.display(), h.version);
+        outln!(
             "  grid             {} × {} × {} = {} voxels",
             g.dims[0],
             g.dims[1],
             g.dims[2],
             g.voxel_count()
         );
-        println!("  voxel size       {}", g.voxel_size);
-        println!("  origin           {} {} {}", g.origin.x, g.origin.y, g.origin.z);
-        println!("  layers           {}", h.layers);
-        println!("  surface voxels   {}", c.surface_voxels);
-        println!("  inner voxels     {}", c.inner_voxels);
-        println!(
+        outln!("  voxel size       {}", g.voxel_size);
+        outln!("  origin           {} {} {}", g.origin.x, g.origin.y, g.origin.z);
+        outln!("  layers           {}", h.layers);
+        outln!("  surface voxels   {}", c.surface_voxels);
+        outln!("  inner voxels     {}", c.inner_voxels);
+        outln!(
             "  bricks stored    {} (+ {} inside tile bricks in {} runs)",
-            c.bricks_stored, c.inside_tile_bricks, h.inside_runs
+            c.bricks_stored,
+            c.inside_tile_bricks,
+            h.inside_runs
         );
-        println!(
+        outln!(
             "  bytes            {} in file, {} uncompressed bricks ({ratio:.1}:1)",
-            h.file_bytes, uncompressed
+            h.file_bytes,
+            uncompressed
         );
     }
     Ok(())
@@ -595,9 +684,9 @@ fn probe(path: &Path, points: &Path) -> Result<()> {
                 )
             })?;
         let v = f.value_at(DVec3::new(c[0], c[1], c[2]))?;
-        writeln!(out, "{v}")?;
+        writeln!(out, "{v}").map_err(output::stdout_failed)?;
     }
-    out.flush()?;
+    out.flush().map_err(output::stdout_failed)?;
     Ok(())
 }
 
@@ -652,14 +741,16 @@ fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output
             }
         }
     }
+    interrupt::clean_beside(output)?;
     vps::render::slice_png(&values, w, h, f.layers(), output)?;
     Ok((w, h))
 }
 
 fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+    interrupt::clean_dir(out_dir)?;
     let mesh = vps::shapes::demo_assembly();
-    println!(
+    outln!(
         "demo: built-in assembly of {} objects, {} triangles (sphere, torus, block, hollow shell, open dome made solid by the winding fill)",
         mesh.objects.len(),
         mesh.triangles.len()
@@ -675,13 +766,13 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
         write: &write,
         secs,
     };
-    summary.print(false, None);
+    summary.print(false, None)?;
     let f = open(&out)?;
     let r = f.verify()?;
-    println!("verified {} bricks", r.bricks_checked);
+    outln!("verified {} bricks", r.bricks_checked);
     let png = out_dir.join("demo_slice.png");
     slice(&f, Axis::Z, Some(30.0), None, &png)?;
-    println!("slice z = 30 written to {}", png.display());
+    outln!("slice z = 30 written to {}", png.display());
     let probes = [
         DVec3::new(30.0, 30.0, 30.0),
         DVec3::new(30.0, 30.0, 50.0),
@@ -689,7 +780,7 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
         DVec3::new(-100.0, 0.0, 0.0),
     ];
     for p in probes {
-        println!("  value at ({}, {}, {}) = {}", p.x, p.y, p.z, f.value_at(p)?);
+        outln!("  value at ({}, {}, {}) = {}", p.x, p.y, p.z, f.value_at(p)?);
     }
     let t = Instant::now();
     let leaf = vps::pointshell::tree::LEAF_SIZE;
@@ -697,7 +788,7 @@ fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     let ps_path = out_dir.join("demo.vps");
     let bytes = write_pointshell(&ps_path, &shell, leaf)?;
     let ts = shell.tree.stats();
-    println!(
+    outln!(
         "pointshell {}: {} points ({} interior, {} recovered), tree of {} nodes, depth {}, {bytes} bytes, {:.3} s",
         ps_path.display(),
         shell.len(),
@@ -736,7 +827,7 @@ fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
     }
     micros.sort_by(f64::total_cmp);
     let at = |q: f64| micros[((micros.len() - 1) as f64 * q).round() as usize];
-    println!(
+    outln!(
         "haptics: {} ({} points) touches, presses and slides on demo.vxm: {} queries, {touching} in contact, p50 {:.1} µs, p99 {:.1} µs",
         probe_path.display(),
         shell.points().len(),
@@ -746,7 +837,7 @@ fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
     );
     if let Some(c) = strongest {
         let (f, t) = (c.force, c.torque);
-        println!(
+        outln!(
             "  strongest contact: force [{:.1}, {:.1}, {:.1}], torque [{:.1}, {:.1}, {:.1}], {} points in contact, max penetration {:.3}",
             f.x, f.y, f.z, t.x, t.y, t.z, c.points_in_contact, c.max_penetration
         );
@@ -756,7 +847,7 @@ fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
 
 fn bench(mesh: Option<&Path>, targets: &[f64], sizes: &[f64], layers: u32, navs: &[NavArg], json: bool) -> Result<()> {
     let (mesh, name) = match mesh {
-        Some(p) => (load_mesh(p)?, p.display().to_string()),
+        Some(p) => (load_mesh(p, None)?, p.display().to_string()),
         None => (vps::shapes::demo_assembly(), "built-in assembly".to_string()),
     };
     let (lo, hi) = mesh.bounds();
@@ -768,8 +859,8 @@ fn bench(mesh: Option<&Path>, targets: &[f64], sizes: &[f64], layers: u32, navs:
     };
     let dir = tempfile::tempdir().context("creating a temporary directory")?;
     if !json {
-        println!("{name}: {} triangles", mesh.triangles.len());
-        println!(
+        outln!("{name}: {} triangles", mesh.triangles.len());
+        outln!(
             "{:>10} {:>10} {:>14} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>12}",
             "nav",
             "voxel",
@@ -793,7 +884,7 @@ fn bench(mesh: Option<&Path>, targets: &[f64], sizes: &[f64], layers: u32, navs:
             let rss = peak_rss_bytes().unwrap_or(0) as f64 / (1 << 20) as f64;
             let sat = report.nav.sat_tests as f64 / report.surface_voxels.max(1) as f64;
             if json {
-                println!(
+                outln!(
                     "{}",
                     json!({"mesh": name, "navigation": format!("{nav:?}").to_lowercase(), "voxel_size": s, "grid_voxels": g.voxel_count(),
                         "surface_voxels": report.surface_voxels, "seconds": secs, "surface_seconds": report.t_surface.as_secs_f64(),
@@ -803,7 +894,7 @@ fn bench(mesh: Option<&Path>, targets: &[f64], sizes: &[f64], layers: u32, navs:
                         "bricks_stored": write.bricks_stored, "payload_bytes_per_stored_voxel": write.payload_bytes as f64 / write.uncompressed_bytes.max(1) as f64})
                 );
             } else {
-                println!(
+                outln!(
                     "{:>10} {:>10.4} {:>14} {:>12} {:>9.3} {:>10.3e} {:>12.3e} {:>9.2} {:>10.1} {:>12}",
                     format!("{nav:?}").to_lowercase(),
                     s,
@@ -857,11 +948,24 @@ fn make_pointshell(
     leaf_size: usize,
     json: bool,
 ) -> Result<()> {
+    interrupt::clean_beside(output)?;
     let params = params(voxel_size, layers, Navigation::Auto)?;
     if leaf_size == 0 {
         bail!("--leaf-size must be at least 1");
     }
-    let mesh = load_mesh(mesh_path)?;
+    let budget = memory_budget()?;
+    let mesh = load_mesh(mesh_path, budget)?;
+    vps::generate::grid_for(&mesh, &params)?;
+    let estimate = budget::pointshell(&mesh, &params);
+    if let Some(budget) = budget.filter(|&b| estimate.peak_bytes > b) {
+        bail!(
+            "the pointshell at voxel size {voxel_size} would need about {} ({:.2e} surface voxels expected), more than \
+             the budget of {} (VPS_MEMORY_BUDGET, or half this machine's memory): use a larger voxel size",
+            human_bytes(estimate.peak_bytes),
+            estimate.surface_voxels,
+            human_bytes(budget)
+        );
+    }
     let start = Instant::now();
     let pb = spinner("pointshell: voxmap");
     let vm = match voxmap {
@@ -892,7 +996,7 @@ fn make_pointshell(
     let ts = shell.tree.stats();
     let s = shell.stats;
     if json {
-        println!(
+        outln!(
             "{}",
             json!({
                 "output": output.display().to_string(),
@@ -918,27 +1022,27 @@ fn make_pointshell(
             })
         );
     } else {
-        println!("wrote {}", output.display());
-        println!(
+        outln!("wrote {}", output.display());
+        outln!(
             "  points           {} ({} interior, {} recovered from edges and vertices)",
             shell.len(),
             s.interior_points,
             s.boundary_points_recovered
         );
-        println!("  normal fallbacks {}", s.normal_fallbacks);
-        println!(
+        outln!("  normal fallbacks {}", s.normal_fallbacks);
+        outln!(
             "  two-sided        {} (no inside voxel next to them)",
             s.two_sided_points
         );
-        println!("  tree             {} nodes, depth {}", ts.nodes, ts.depth);
-        println!("  file             {bytes} bytes");
-        println!(
+        outln!("  tree             {} nodes, depth {}", ts.nodes, ts.depth);
+        outln!("  file             {bytes} bytes");
+        outln!(
             "  time             {secs:.3} s (voxmap {t_voxmap:.3}, pointshell {t_shell:.3}: {:.3e} points/s)",
             shell.len() as f64 / t_shell
         );
     }
     if s.voxmap_mismatches > 0 {
-        eprintln!(
+        errln!(
             "warning: {} surface voxels of the mesh are not surface in the voxmap: is it the voxmap of this mesh?",
             s.voxmap_mismatches
         );
@@ -951,7 +1055,7 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
     let h = f.header();
     let s = h.stats;
     if json {
-        println!(
+        outln!(
             "{}",
             json!({
                 "format_version": h.version,
@@ -970,26 +1074,29 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
             })
         );
     } else {
-        println!("{}: pointshell format {}", path.display(), h.version);
-        println!("  points           {} at voxel size {}", h.points, h.voxel_size);
-        println!(
+        outln!("{}: pointshell format {}", path.display(), h.version);
+        outln!("  points           {} at voxel size {}", h.points, h.voxel_size);
+        outln!(
             "  phases           {} interior, {} recovered from edges and vertices",
-            s.interior_points, s.boundary_points_recovered
+            s.interior_points,
+            s.boundary_points_recovered
         );
-        println!("  normal fallbacks {}", s.normal_fallbacks);
+        outln!("  normal fallbacks {}", s.normal_fallbacks);
         if h.version == vps::storage::pointshell::PS_VERSION_1 {
-            println!("  two-sided        not counted (format 1)");
+            outln!("  two-sided        not counted (format 1)");
         } else {
-            println!(
+            outln!(
                 "  two-sided        {} (no inside voxel next to them)",
                 s.two_sided_points
             );
         }
-        println!(
+        outln!(
             "  tree             {} nodes, depth {}, leaves of at most {} points",
-            h.nodes, h.tree_depth, h.leaf_size
+            h.nodes,
+            h.tree_depth,
+            h.leaf_size
         );
-        println!("  bytes            {}", h.file_bytes);
+        outln!("  bytes            {}", h.file_bytes);
     }
     Ok(())
 }
@@ -998,7 +1105,8 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
 /// `KiB`/`MiB`/`GiB`/`TiB` (powers of 1024); `B` alone or no unit means bytes.
 fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
     let t = text.trim();
-    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    // The unit is the trailing run of letters: `2e9` has none, `4GiB` and `1.5e3 MB` do.
+    let split = t.trim_end_matches(|c: char| c.is_ascii_alphabetic()).len();
     let (num, unit) = (t[..split].trim(), t[split..].trim());
     let n: f64 = num
         .parse()
@@ -1024,4 +1132,29 @@ fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
         return Err(format!("'{text}' is not a usable size"));
     }
     Ok(bytes as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_take_the_forms_the_help_shows() {
+        assert_eq!(parse_bytes("2e9"), Ok(2_000_000_000));
+        assert_eq!(parse_bytes("4GiB"), Ok(4 << 30));
+        assert_eq!(parse_bytes("500MB"), Ok(500_000_000));
+        assert_eq!(parse_bytes("1.5e3 MB"), Ok(1_500_000_000));
+        assert_eq!(parse_bytes(" 512 MiB "), Ok(512 << 20));
+        assert_eq!(parse_bytes("4096"), Ok(4096));
+        for bad in ["", "GiB", "-1GiB", "4 parsecs", "1e400", "nan", "0"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn byte_counts_read_well() {
+        assert_eq!(human_bytes(10), "10 bytes");
+        assert_eq!(human_bytes(3 << 29), "1.5 GiB");
+        assert_eq!(human_bytes(u64::MAX), "16.0 EiB");
+    }
 }

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
+
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -95,6 +96,7 @@ fn synth(args: &SynthArgs) -> Result<()> {
     let t_generate = start.elapsed().as_secs_f64();
     pb.set_message(format!("writing {}", args.output.display()));
     let t = Instant::now();
+    crate::interrupt::clean_beside(&args.output)?;
     let report = write_obj_file(&mesh, &args.output).with_context(|| format!("writing {}", args.output.display()))?;
     let t_write = t.elapsed().as_secs_f64();
     pb.finish_and_clear();
@@ -125,10 +127,10 @@ fn synth(args: &SynthArgs) -> Result<()> {
             "generate_seconds": t_generate,
             "write_seconds": t_write,
         });
-        println!("{j}");
+        outln!("{j}");
     } else {
-        println!("wrote {}", args.output.display());
-        println!(
+        outln!("wrote {}", args.output.display());
+        outln!(
             "  triangles        {} (seed {}), {} vertices",
             mesh.triangles.len(),
             args.seed,
@@ -140,20 +142,29 @@ fn synth(args: &SynthArgs) -> Result<()> {
         let large = mesh.objects.len() as u64 - many.iter().map(|k| k.1).sum::<u64>();
         let mut listed: Vec<String> = many.iter().map(|(k, n)| format!("{n} {k}")).collect();
         listed.push(format!("{large} large parts and panels"));
-        println!("  objects          {} ({})", mesh.objects.len(), listed.join(", "));
-        println!(
+        outln!("  objects          {} ({})", mesh.objects.len(), listed.join(", "));
+        outln!(
             "  bounds           [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}] mm ({:.0} × {:.0} × {:.0})",
-            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, size.x, size.y, size.z
+            lo.x,
+            lo.y,
+            lo.z,
+            hi.x,
+            hi.y,
+            hi.z,
+            size.x,
+            size.y,
+            size.z
         );
         if report.compressed {
-            println!(
+            outln!(
                 "  file             {} bytes (zstd; {} bytes of OBJ text)",
-                report.file_bytes, report.obj.bytes
+                report.file_bytes,
+                report.obj.bytes
             );
         } else {
-            println!("  file             {} bytes", report.file_bytes);
+            outln!("  file             {} bytes", report.file_bytes);
         }
-        println!("  time             {secs:.3} s (generate {t_generate:.3}, write {t_write:.3})");
+        outln!("  time             {secs:.3} s (generate {t_generate:.3}, write {t_write:.3})");
     }
     Ok(())
 }
