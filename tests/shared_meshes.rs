@@ -209,7 +209,8 @@ fn open_real_meshes_get_an_inside_and_inward_normals() {
         let (decided, inward) = common::inward_normals(&mesh, &shell, params.voxel_size, 400);
         eprintln!("{name}: {inward} of {decided} normals where the winding number decides point inward");
         assert!(decided >= 40, "{name}: only {decided} points decided");
-        // The aim is 99 %; the TORCS car's thin panels reach 96 % (issue 10's closing note).
-        assert!(inward as f64 >= 0.95 * decided as f64, "{name}: {inward} of {decided}");
+        // On these 400 samples every mesh reaches 99 %; on 4,000 the TORCS car and the Cessna
+        // reach 98.2 % and 98.8 % (docs/POINTSHELL.md).
+        assert!(inward as f64 >= 0.99 * decided as f64, "{name}: {inward} of {decided}");
     }
 }

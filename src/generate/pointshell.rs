@@ -111,9 +111,18 @@ pub fn pointshell(
             runs.push((run, p, n));
         }
     }
+    let firsts: Vec<usize> = runs
+        .iter()
+        .scan(0, |at, r| {
+            let first = *at;
+            *at += r.1.len();
+            Some(first)
+        })
+        .collect();
     let per_run: Vec<NormalStats> = runs
         .into_par_iter()
-        .map(|(run, p_out, n_out)| {
+        .zip(firsts)
+        .map(|((run, p_out, n_out), first)| {
             let mut s = NormalStats::default();
             let mut neighbours = Neighbours::new(voxmap);
             let mut window = Window::new(voxmap);
@@ -137,6 +146,9 @@ pub fn pointshell(
                     let (n, fell_back, two_sided) = window.normal(l, &mesh.triangles[triangle as usize]);
                     s.fallbacks += fell_back as u64;
                     s.two_sided += two_sided as u64;
+                    if two_sided || fell_back {
+                        s.to_orient.push((first + at, triangle));
+                    }
                     p_out[at] = (grid.origin + *point * grid.voxel_size - origin).as_vec3();
                     n_out[at] = n.as_vec3();
                     at += 1;
@@ -145,11 +157,14 @@ pub fn pointshell(
             s
         })
         .collect();
+    let mut to_orient = Vec::new();
     for s in per_run {
         stats.normal_fallbacks += s.fallbacks;
         stats.voxmap_mismatches += s.mismatches;
         stats.two_sided_points += s.two_sided;
+        to_orient.extend(s.to_orient);
     }
+    orient_two_sided(mesh, &grid, origin, &points, &mut normals, to_orient);
     drop(chunks);
 
     report.t_normals = t.elapsed();
@@ -171,16 +186,73 @@ pub fn pointshell(
     ))
 }
 
+/// How much more inside the far side must be for a normal to be turned: a sheet seen alike
+/// from both sides (equal winding numbers but for rounding) keeps the OBJ convention.
+const ORIENT_MARGIN: f64 = 1e-6;
+
+/// Most triangle solid angles summed to orient the two-sided points of one object exactly;
+/// beyond it, only where the near triangles decide (see [`orient_two_sided`]).
+const EXACT_ORIENT_WORK: usize = 1 << 28;
+
+/// Turn the normals of two-sided points (no inside voxel near, so the voxmap cannot tell
+/// their sides apart) towards the side where the point's object has the larger winding
+/// number, one voxel along the normal: the side that is more inside, though by less than ½
+/// at voxel centres. The plain solid-angle sum is used while the work stays below
+/// [`EXACT_ORIENT_WORK`] per object; above it, the near triangles summed exactly with the far
+/// ones bounded, where that decides. Undecided points keep their normal. Points whose
+/// neighbourhood normal was unstable (and fell back to the triangle's) are oriented the
+/// same way.
+fn orient_two_sided(
+    mesh: &Mesh,
+    grid: &Grid,
+    origin: DVec3,
+    points: &[Vec3],
+    normals: &mut [Vec3],
+    mut to_orient: Vec<(usize, u32)>,
+) {
+    use crate::geometry::winding::{winding_number, AreaBound};
+    let object_of = |t: u32| mesh.objects.partition_point(|o| o.triangles.end <= t as usize);
+    to_orient.sort_unstable_by_key(|&(_, t)| object_of(t));
+    let step = grid.voxel_size;
+    for group in to_orient.chunk_by(|a, b| object_of(a.1) == object_of(b.1)) {
+        let tris = &mesh.triangles[mesh.objects[object_of(group[0].1)].triangles.clone()];
+        let exact = tris.len().saturating_mul(2 * group.len()) <= EXACT_ORIENT_WORK;
+        let tree = (!exact).then(|| AreaBound::new(tris));
+        let turned: Vec<(usize, Vec3)> = group
+            .par_iter()
+            .filter_map(|&(i, _)| {
+                let p = points[i].as_dvec3() + origin;
+                let n = normals[i].as_dvec3();
+                let (ahead, behind) = (p + n * step, p - n * step);
+                let flip = match &tree {
+                    None => winding_number(tris, behind).abs() > winding_number(tris, ahead).abs() + ORIENT_MARGIN,
+                    Some(tree) => {
+                        let ((wa, ea), (wb, eb)) = (tree.near_sum(ahead), tree.near_sum(behind));
+                        wb.abs() - eb > wa.abs() + ea + ORIENT_MARGIN
+                    }
+                };
+                flip.then_some((i, -normals[i]))
+            })
+            .collect();
+        for (i, n) in turned {
+            normals[i] = n;
+        }
+    }
+}
+
 /// Surface bricks per task of the normals pass: enough for the look-ups of consecutive bricks
 /// to share their neighbours, few enough that the tasks balance.
 const BRICKS_PER_RUN: usize = 64;
 
 /// Counters of the normals pass.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 struct NormalStats {
     fallbacks: u64,
     mismatches: u64,
     two_sided: u64,
+    /// Two-sided points whose triangle normal the winding number orients: (point index,
+    /// triangle).
+    to_orient: Vec<(usize, u32)>,
 }
 
 /// Where one surface brick's points are: in chunk `chunk`'s arrays, `start..start + len`.
