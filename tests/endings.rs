@@ -482,3 +482,73 @@ fn sizes_and_numbers_get_the_right_message() {
     assert!(!stderr(&o).contains("panicked"));
     let _ = File::open(fx.path("ball.vxm")).unwrap();
 }
+
+/// Peak resident memory of a running child, read from `/proc` until it exits (Linux).
+fn peak_rss_until_exit(child: &mut Child) -> Option<u64> {
+    let status = format!("/proc/{}/status", child.id());
+    let mut peak = None;
+    while child.try_wait().unwrap().is_none() {
+        if let Ok(text) = std::fs::read_to_string(&status) {
+            let kib = text
+                .lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<u64>().ok());
+            peak = kib.map(|k| k * 1024).or(peak);
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    peak
+}
+
+/// `--memory-limit` holds while the mesh loads: a mesh bigger than the limit allows is refused
+/// before it is kept whole, and a run that fits stays under the limit.
+#[test]
+fn the_memory_limit_holds_while_loading_and_running() {
+    if !Path::new("/proc/self/status").exists() {
+        eprintln!("skipping: no /proc");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("car.obj");
+    let o = vps(&["scene", "synth", "--triangles", "1000000", "-o", p(&obj)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("car.vxm");
+    // 72 MB of triangles against 150 MiB less the 96 MiB reserve: refused while loading.
+    let limit = 150u64 << 20;
+    let mut child = spawn(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "10",
+        "-o",
+        p(&out),
+        "--memory-limit",
+        "150MiB",
+    ]);
+    let peak = peak_rss_until_exit(&mut child);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("memory"), "{}", stderr(&o));
+    if let Some(peak) = peak {
+        assert!(peak <= limit + MEMORY_MARGIN, "peak {} MiB", peak >> 20);
+    }
+    // A limit the run fits in: its peak (the run's own report) stays under it.
+    let o = vps(&[
+        "voxelize",
+        p(&obj),
+        "--voxel-size",
+        "5",
+        "-o",
+        p(&out),
+        "--memory-limit",
+        "400MiB",
+        "--json",
+    ]);
+    let j = common::json(&o);
+    let peak = j["peak_rss_bytes"].as_u64().unwrap();
+    assert!(peak <= (400 << 20) + MEMORY_MARGIN, "peak {} MiB", peak >> 20);
+}
+
+/// What `--memory-limit` may be exceeded by (docs/VOXMAP.md).
+const MEMORY_MARGIN: u64 = 16 << 20;

@@ -230,7 +230,8 @@ fn objects_surface(
             let mut interface = Vec::new();
             let closed = if fill == Fill::Winding {
                 let w = winding::WindingObject::new(grid, tris);
-                winding::add_object_inside(grid, tris, &w, &bricks, 0..grid.dims[0], &mut inside, &mut interface);
+                let all = winding::Columns::all(0..grid.dims[0]);
+                winding::add_object_inside(grid, tris, &w, &bricks, all, &mut inside, &mut interface);
                 !w.is_open()
             } else {
                 let closed = inside::is_closed(tris);

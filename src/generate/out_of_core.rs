@@ -619,18 +619,16 @@ impl ObjectColumns {
     ) -> (ObjectsInside, Vec<(u64, Mask512)>) {
         let tris_of = |s: usize| &mesh.triangles[mesh.objects[self.solid[s].0].triangles.clone()];
         // Only open objects have an interface, so only they are done in the halo.
+        let open = |w: &Option<winding::WindingObject>| w.as_ref().is_some_and(|w| w.is_open());
         let planes_of = |r: &Range<u32>, w: &Option<winding::WindingObject>| {
-            let wanted = if w.as_ref().is_some_and(|w| w.is_open()) {
-                &halo
-            } else {
-                &slab
-            };
+            let wanted = if open(w) { &halo } else { &slab };
             wanted.start.max(r.start)..wanted.end.min(r.end)
         };
         // (entry of `solid`, brick plane, triangle) for every plane of columns a triangle's x
         // extent meets, with two voxels to spare (the winding fill looks one column beyond its
         // own), and (entry, plane, NONE) for every plane, so that planes an open object's
-        // inside reaches beyond its triangles are done too.
+        // inside reaches beyond its triangles are done too. An open object's planes are one
+        // group, keyed by its first plane.
         const NONE: u32 = u32::MAX;
         let mut items: Vec<(u32, u32, u32)> = self
             .solid
@@ -639,7 +637,14 @@ impl ObjectColumns {
             .filter(|(_, (_, r, w))| !planes_of(r, w).is_empty())
             .flat_map_iter(|(i, (_, r, w))| {
                 let planes = planes_of(r, w);
-                let every = planes.clone().map(move |b| (i as u32, b, NONE));
+                // An open object is done in one piece over all its planes: its blocks then
+                // start as wide as the tiles, not one brick plane of columns.
+                let whole = open(w);
+                let group_of = move |b: u32| if whole { planes.start } else { b };
+                let every = planes
+                    .clone()
+                    .filter(move |&b| !whole || b == planes.start)
+                    .map(move |b| (i as u32, b, NONE));
                 let reaching = tris_of(i).iter().enumerate().flat_map(move |(k, t)| {
                     let xs = t.map(|p| grid.to_grid_units(p).x);
                     let (lo, hi) = (xs[0].min(xs[1]).min(xs[2]) - 2.0, xs[0].max(xs[1]).max(xs[2]) + 2.0);
@@ -651,7 +656,12 @@ impl ObjectColumns {
                     } else {
                         (0, 0)
                     };
-                    (b0..b1).map(move |b| (i as u32, b, k as u32))
+                    let (b0, b1) = if whole && b0 < b1 {
+                        (planes.start, planes.start + 1)
+                    } else {
+                        (b0, b1)
+                    };
+                    (b0..b1).map(move |b| (i as u32, group_of(b), k as u32))
                 });
                 every.chain(reaching)
             })
@@ -669,6 +679,7 @@ impl ObjectColumns {
                         .filter(|&&(_, _, k)| k != NONE)
                         .map(|&(_, _, k)| tris[k as usize])
                         .collect();
+                    let (_, r, object) = &self.solid[group[0].0 as usize];
                     let x0 = group[0].1 * 8;
                     let x1 = (x0 + 8).min(grid.dims[0]);
                     let mut halo_only = ObjectsInside::default();
@@ -677,8 +688,19 @@ impl ObjectColumns {
                     } else {
                         &mut halo_only
                     };
-                    match &self.solid[group[0].0 as usize].2 {
-                        Some(w) => winding::add_object_inside(grid, &own, w, surface, x0..x1, into, &mut interface),
+                    match object {
+                        Some(w) if w.is_open() => {
+                            let planes = planes_of(r, object);
+                            let columns = winding::Columns {
+                                decide: planes.start * 8..(planes.end * 8).min(grid.dims[0]),
+                                keep: slab.start * 8..(slab.end * 8).min(grid.dims[0]),
+                            };
+                            winding::add_object_inside(grid, &own, w, surface, columns, &mut out, &mut interface)
+                        }
+                        Some(w) => {
+                            let columns = winding::Columns::all(x0..x1);
+                            winding::add_object_inside(grid, &own, w, surface, columns, into, &mut interface)
+                        }
                         None => inside::add_closed_object_columns(grid, &own, x0..x1, into),
                     }
                     (out, interface)

@@ -306,10 +306,11 @@ pub fn add_object_inside(
     tris: &[Triangle],
     obj: &WindingObject,
     surface: &[(u64, Mask512)],
-    x_columns: Range<u32>,
+    columns: Columns,
     out: &mut ObjectsInside,
     interface: &mut Vec<(u64, Mask512)>,
 ) {
+    let x_columns = columns.decide;
     let xs = obj.lo[0].max(x_columns.start as i64)..obj.hi[0].min(x_columns.end as i64);
     let ys = obj.lo[1]..obj.hi[1];
     if xs.is_empty() || ys.is_empty() || obj.lo[2] >= obj.hi[2] {
@@ -385,11 +386,37 @@ pub fn add_object_inside(
     if obj.is_open() {
         interface.extend(interface_voxels(&ctx, &runs, xs.clone()));
     }
+    let keep = columns.keep.start as i64..columns.keep.end as i64;
     let own: Runs = runs
         .into_iter()
-        .filter(|r| xs.contains(&((r.0 >> 32) as i64)))
+        .filter(|r| {
+            let x = (r.0 >> 32) as i64;
+            xs.contains(&x) && keep.contains(&x)
+        })
         .collect();
     emit(grid, &own, out);
+}
+
+/// The voxel columns (along x) one call of [`add_object_inside`] works on: it decides the
+/// columns of `decide` and gives their interface voxels, and the inside runs of those also in
+/// `keep` (an out-of-core slab keeps the inside of its own columns only, and the interface of
+/// its halo too).
+#[derive(Clone, Debug)]
+pub struct Columns {
+    /// Columns decided, whose interface voxels are returned.
+    pub decide: Range<u32>,
+    /// Columns whose inside runs are returned.
+    pub keep: Range<u32>,
+}
+
+impl Columns {
+    /// Decide and keep the same columns.
+    pub fn all(columns: Range<u32>) -> Columns {
+        Columns {
+            decide: columns.clone(),
+            keep: columns,
+        }
+    }
 }
 
 /// Sorted runs with those that overlap or touch in a column joined.
@@ -901,10 +928,26 @@ mod slab_tests {
         for (k, tris) in parts.iter().enumerate() {
             let w = WindingObject::new(&grid, tris);
             let (mut a, mut fa) = (ObjectsInside::default(), Vec::new());
-            add_object_inside(&grid, tris, &w, &surface, 0..grid.dims[0], &mut a, &mut fa);
+            add_object_inside(
+                &grid,
+                tris,
+                &w,
+                &surface,
+                Columns::all(0..grid.dims[0]),
+                &mut a,
+                &mut fa,
+            );
             let (mut b, mut fb) = (ObjectsInside::default(), Vec::new());
             for p in 0..grid.dims[0] / 8 {
-                add_object_inside(&grid, tris, &w, &surface, p * 8..p * 8 + 8, &mut b, &mut fb);
+                add_object_inside(
+                    &grid,
+                    tris,
+                    &w,
+                    &surface,
+                    Columns::all(p * 8..p * 8 + 8),
+                    &mut b,
+                    &mut fb,
+                );
             }
             let (a, b) = (a.finish(), b.finish());
             let nb = grid.brick_dims();

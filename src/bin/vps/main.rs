@@ -435,7 +435,7 @@ fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
     pb.finish_and_clear();
     if let Some(limit) = limit.filter(|&l| budget::mesh_bytes(&mesh) > l) {
         bail!(
-            "the mesh alone needs {} in memory, more than the {} this run may use",
+            "memory limit too small: the mesh alone needs {} in memory, more than the {} this run may use for it",
             human_bytes(budget::mesh_bytes(&mesh)),
             human_bytes(limit)
         );
