@@ -168,16 +168,20 @@ pub(crate) enum BadCorner {
     TooLarge(f64),
 }
 
-/// Checks a vertex against the coordinate limits.
-pub(crate) fn check_corner(p: DVec3) -> Result<(), BadCorner> {
-    if !p.is_finite() {
-        return Err(BadCorner::NonFinite);
+/// Checks corners against the coordinate limits: the first non-finite one, else the first too
+/// large one (a transform that overflows makes some corners infinite and others huge; the
+/// infinite ones say more), with its position in `corners`.
+pub(crate) fn check_corners(corners: impl Iterator<Item = DVec3> + Clone) -> Result<(), (usize, BadCorner)> {
+    if let Some(k) = corners.clone().position(|p| !p.is_finite()) {
+        return Err((k, BadCorner::NonFinite));
     }
-    let big = p.abs().max_element();
-    if big > MAX_COORDINATE {
-        // The coordinate with its sign, for the message.
-        let value = p.to_array().into_iter().find(|c| c.abs() == big).unwrap_or(big);
-        return Err(BadCorner::TooLarge(value));
+    for (k, p) in corners.enumerate() {
+        let big = p.abs().max_element();
+        if big > MAX_COORDINATE {
+            // The coordinate with its sign, for the message.
+            let value = p.to_array().into_iter().find(|c| c.abs() == big).unwrap_or(big);
+            return Err((k, BadCorner::TooLarge(value)));
+        }
     }
     Ok(())
 }
@@ -195,23 +199,21 @@ impl Mesh {
     pub fn push_object(&mut self, name: &str, triangles: impl IntoIterator<Item = Triangle>) -> Result<(), MeshError> {
         let start = self.triangles.len();
         for (i, t) in triangles.into_iter().enumerate() {
-            for (k, p) in t.iter().enumerate() {
-                match check_corner(*p) {
-                    Ok(()) => {}
-                    Err(BadCorner::NonFinite) => {
-                        return Err(MeshError::NonFinite {
-                            object: name.to_string(),
-                            vertex: i * 3 + k,
-                            coords: p.to_array(),
-                        })
-                    }
-                    Err(BadCorner::TooLarge(value)) => {
-                        return Err(MeshError::CoordinateTooLarge {
-                            object: name.to_string(),
-                            vertex: i * 3 + k,
-                            value,
-                        })
-                    }
+            match check_corners(t.iter().copied()) {
+                Ok(()) => {}
+                Err((k, BadCorner::NonFinite)) => {
+                    return Err(MeshError::NonFinite {
+                        object: name.to_string(),
+                        vertex: i * 3 + k,
+                        coords: t[k].to_array(),
+                    })
+                }
+                Err((k, BadCorner::TooLarge(value))) => {
+                    return Err(MeshError::CoordinateTooLarge {
+                        object: name.to_string(),
+                        vertex: i * 3 + k,
+                        value,
+                    })
                 }
             }
             if is_degenerate(&t) {
@@ -326,6 +328,12 @@ mod tests {
         assert!(matches!(
             Mesh::from_triangles("nan", [t(f64::NAN)]),
             Err(MeshError::NonFinite { vertex: 1, .. })
+        ));
+        // An infinite corner says more than a huge one in the same triangle.
+        let mixed: Triangle = [DVec3::splat(1e200), DVec3::ZERO, DVec3::new(0.0, f64::INFINITY, 0.0)];
+        assert!(matches!(
+            Mesh::from_triangles("mixed", [mixed]),
+            Err(MeshError::NonFinite { vertex: 2, .. })
         ));
     }
 }

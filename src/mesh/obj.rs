@@ -32,7 +32,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{check_corner, object_bytes, BadCorner, LoadOptions, Mesh, MeshError, MeshObject, Triangle};
+use super::{check_corners, object_bytes, BadCorner, LoadOptions, Mesh, MeshError, MeshObject, Triangle};
 use super::{TRIANGLE_BYTES, VERTEX_BYTES};
 
 /// Longest line, in bytes, newline excluded: far beyond any real OBJ line (a face of ten
@@ -317,20 +317,20 @@ impl Reader {
             self.mesh.degenerate_skipped += 1;
             return Ok(());
         }
-        for &k in &self.corners {
-            let p = self.vertices[k];
-            match check_corner(p) {
-                Ok(()) => {}
-                Err(BadCorner::NonFinite) => {
-                    return Err(ObjError::NonFinite {
-                        vertex: k + 1,
-                        coords: p.to_array(),
-                    }
-                    .into())
+        let vertices = &self.vertices;
+        match check_corners(self.corners.iter().map(|&k| vertices[k])) {
+            Ok(()) => {}
+            Err((j, BadCorner::NonFinite)) => {
+                let k = self.corners[j];
+                return Err(ObjError::NonFinite {
+                    vertex: k + 1,
+                    coords: vertices[k].to_array(),
                 }
-                Err(BadCorner::TooLarge(value)) => {
-                    return Err(ObjError::CoordinateTooLarge { vertex: k + 1, value }.into())
-                }
+                .into());
+            }
+            Err((j, BadCorner::TooLarge(value))) => {
+                let vertex = self.corners[j] + 1;
+                return Err(ObjError::CoordinateTooLarge { vertex, value }.into());
             }
         }
         let a = self.vertices[self.corners[0]];
@@ -639,6 +639,10 @@ mod tests {
         let (line, e) = error(b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
         assert_eq!(line, 4);
         assert!(matches!(e, ObjError::NonFinite { vertex: 1, .. }), "{e:?}");
+        assert!(matches!(
+            error(b"v 1e200 0 0\nv 0 0 0\nv 0 -inf 0\nf 1 2 3\n").1,
+            ObjError::NonFinite { vertex: 3, .. }
+        ));
         // An unused one is harmless.
         assert!(parse(b"v 0 0 inf\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 2 3 4\n").is_ok());
         // Overflows to infinity when divided by w.
