@@ -101,7 +101,8 @@ pub enum MeshError {
 /// A named part of a mesh: its triangles are a contiguous range.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshObject {
-    /// Name from the OBJ `o`/`g` statement, or a generated one.
+    /// Name from the OBJ `o`/`g` statement ([`obj::UNNAMED_OBJECT`] without one), or the
+    /// name given to [`Mesh::push_object`].
     pub name: String,
     /// Its triangles in [`Mesh::triangles`].
     pub triangles: Range<usize>,
