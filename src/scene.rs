@@ -135,7 +135,9 @@ fn unknown_field_message(field: &str, expected: &[&str], suggestion: &Option<&'s
 fn mesh_error_message(path: &Path, error: &MeshError) -> String {
     match error {
         // These name the file already.
-        MeshError::Io { .. } | MeshError::Obj { where_: Some(_), .. } => error.to_string(),
+        MeshError::Io { .. } | MeshError::Obj { where_: Some(_), .. } | MeshError::Parse { file: Some(_), .. } => {
+            error.to_string()
+        }
         _ => format!("mesh {}: {error}", path.display()),
     }
 }
@@ -1296,7 +1298,7 @@ rotation.euler_degrees = [10.0, 20.0, 30.0]
             matches!(
                 &e,
                 SceneError::Mesh {
-                    error: MeshError::Obj { .. },
+                    error: MeshError::Parse { line: 2, .. },
                     ..
                 }
             ),

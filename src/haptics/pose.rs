@@ -31,9 +31,9 @@ pub enum PoseError {
         /// Quaternion as given, w first.
         rotation: [f64; 4],
     },
-    /// The quaternion is (nearly) zero, so it gives no rotation.
-    #[error("pose quaternion [w x y z] {0:?} has length {1:e}: it must be a rotation (non-zero; it is normalised)")]
-    ZeroQuaternion([f64; 4], f64),
+    /// The quaternion is zero, so it gives no rotation.
+    #[error("pose quaternion [w x y z] {0:?} is zero: it must be a rotation (any non-zero multiple of a unit quaternion; it is normalised)")]
+    ZeroQuaternion([f64; 4]),
 }
 
 /// A rigid transform from the pointshell's frame to the voxmap's world frame:
@@ -62,7 +62,9 @@ impl Pose {
     };
 
     /// A pose from a translation and a quaternion given w first, as in the text form. The
-    /// quaternion is normalised; it must be finite and not near zero.
+    /// quaternion is normalised; it must be finite and not zero. It is scaled by its largest
+    /// component first, so that its length neither overflows (`1e200 0 0 0`) nor underflows
+    /// (`1e-300 0 0 0`): both are the identity.
     pub fn new(translation: [f64; 3], wxyz: [f64; 4]) -> Result<Pose, PoseError> {
         if !translation.iter().chain(wxyz.iter()).all(|c| c.is_finite()) {
             return Err(PoseError::NotFinite {
@@ -70,15 +72,21 @@ impl Pose {
                 rotation: wxyz,
             });
         }
-        let [w, x, y, z] = wxyz;
-        let q = DQuat::from_xyzw(x, y, z, w);
-        let len = q.length();
-        if len.is_nan() || len <= 1e-9 {
-            return Err(PoseError::ZeroQuaternion(wxyz, len));
+        let big = wxyz.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        if big == 0.0 {
+            return Err(PoseError::ZeroQuaternion(wxyz));
         }
+        // By a power of two, which is exact: a unit quaternion read back from its text form
+        // then normalises to within an ulp of itself. In two steps, as 2^-e alone overflows
+        // for subnormal `big` (e down to -1074).
+        let e = big.log2().floor() as i32;
+        let half = e / 2;
+        let (k1, k2) = (2f64.powi(-half), 2f64.powi(half - e));
+        let [w, x, y, z] = wxyz.map(|c| c * k1 * k2);
+        let q = DQuat::from_xyzw(x, y, z, w);
         Ok(Pose {
             translation: DVec3::from_array(translation),
-            rotation: q / len,
+            rotation: q / q.length(),
         })
     }
 
@@ -145,6 +153,37 @@ mod tests {
     }
 
     #[test]
+    fn huge_and_tiny_quaternions_normalise() {
+        // Found by fuzzing: the length of `1e200 0 0 0` overflowed and the pose had a zero
+        // quaternion.
+        for text in [
+            "0 0 0 1e200 0 0 0",
+            "0 0 0 1e-300 0 0 0",
+            "0 0 0 5e-324 0 0 0",
+            "0 0 0 1.7976931348623157e308 0 0 0",
+        ] {
+            assert_eq!(Pose::parse(text).unwrap().rotation, DQuat::IDENTITY, "{text}");
+        }
+        let half = std::f64::consts::FRAC_1_SQRT_2;
+        for (text, x) in [("0 0 0 1e300 1e300 0 0", half), ("0 0 0 -1e-310 -1e-310 0 0", half)] {
+            let q = Pose::parse(text).unwrap().rotation;
+            assert!(
+                (q.x.abs() - x).abs() < 1e-15 && (q.length() - 1.0).abs() < 1e-15,
+                "{text}: {q:?}"
+            );
+        }
+        // Components far below the largest vanish, and the result is still a unit quaternion.
+        let q = Pose::parse("0 0 0 1e300 1e-300 0 0").unwrap().rotation;
+        assert_eq!(q, DQuat::IDENTITY);
+        // Unit quaternions read back to within an ulp or so.
+        for text in ["0 0 0 0.5 0.5 0.5 0.5", "1 2 3 1 0e-3 7 0.5", "0 0 0 0.1 0.2 0.3 0.4"] {
+            let p = Pose::parse(text).unwrap();
+            let again = Pose::parse(&p.to_text()).unwrap();
+            assert!((again.rotation - p.rotation).length() <= 1e-15, "{text}");
+        }
+    }
+
+    #[test]
     fn rejects_bad_poses() {
         assert!(matches!(Pose::parse("1 2 3"), Err(PoseError::Count { found: 3, .. })));
         assert!(matches!(
@@ -155,6 +194,12 @@ mod tests {
             Pose::parse("1 2 3 0 0 0 0"),
             Err(PoseError::ZeroQuaternion(..))
         ));
+        assert!(matches!(
+            Pose::parse("1 2 3 -0 0 0 -0"),
+            Err(PoseError::ZeroQuaternion(..))
+        ));
+        let e = Pose::parse("1 2 3 0 0 0 0").unwrap_err().to_string();
+        assert!(e.contains("is zero"), "{e}");
         assert!(matches!(
             Pose::parse("NaN 2 3 1 0 0 0"),
             Err(PoseError::NotFinite { .. })

@@ -382,6 +382,39 @@ mod tests {
         ));
         let e = parse_trajectory("1 2 3 1 0 0 0\nnan 0 0 1 0 0 0").unwrap_err();
         assert!(matches!(e, TrajectoryError::Line { line: 2, .. }));
+        let e = parse_trajectory("1 2 3 1 0 0 0\n0 0 0 1 inf 0 0").unwrap_err();
+        assert!(matches!(
+            e,
+            TrajectoryError::Line {
+                line: 2,
+                error: PoseError::NotFinite { .. }
+            }
+        ));
+    }
+
+    #[test]
+    fn huge_quaternions_are_scaled_before_normalising() {
+        // Found by fuzzing (231 s): the quaternion's length overflowed, and the pose held the
+        // zero quaternion [0, 0, 0, 0], which nobody gave.
+        let poses = parse_trajectory("0 0 0 1e200 0 0 0\n0 0 0 1e-300 0 0 0\n0 0 0 0 0 -1e200 0\n").unwrap();
+        assert_eq!(poses[0].rotation, DQuat::IDENTITY);
+        assert_eq!(poses[1].rotation, DQuat::IDENTITY);
+        assert_eq!(poses[2].rotation, DQuat::from_xyzw(0.0, -1.0, 0.0, 0.0));
+        assert_eq!(parse_trajectory(&trajectory_text(&poses)).unwrap(), poses);
+        let e = parse_trajectory("0 0 0 1 0 0 0\n0 0 0 0 0 0 0\n").unwrap_err();
+        assert!(matches!(
+            e,
+            TrajectoryError::Line {
+                line: 2,
+                error: PoseError::ZeroQuaternion(..)
+            }
+        ));
+        assert!(e.to_string().contains("is zero"), "{e}");
+        // The fuzz seeds: the crash input and a valid file.
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/trajectory_parse");
+        let crash = read_trajectory(dir.join("crash-huge-quaternion.txt")).unwrap();
+        assert_eq!(crash[0].rotation, DQuat::IDENTITY);
+        assert_eq!(read_trajectory(dir.join("poses.txt")).unwrap().len(), 4);
     }
 
     #[test]
