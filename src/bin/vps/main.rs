@@ -425,18 +425,42 @@ fn human_bytes(b: u64) -> String {
 /// An OBJ mesh, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh,
 /// refused as soon as the triangles kept need more than `limit` bytes.
 fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
-    let pb = spinner(&format!("reading {}", path.display()));
+    let pb = ProgressBar::new(0);
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg} {bytes}/{total_bytes}")
+            .expect("static template"),
+    );
+    pb.enable_steady_tick(Duration::from_millis(120));
+    pb.set_message(format!("reading {}", path.display()));
+    let progress = |read: u64, total: Option<u64>| {
+        pb.set_length(total.unwrap_or(read));
+        pb.set_position(read);
+    };
     let mesh = if vps::scene::is_scene_path(path) {
         let scene = vps::scene::Scene::load(path).context("loading the scene")?;
         scene.to_mesh().context("loading the scene")?
     } else {
-        Mesh::load_obj(path)?
+        let options = vps::mesh::LoadOptions {
+            max_mesh_bytes: limit,
+            progress: Some(&progress),
+        };
+        Mesh::load_obj_with(path, &options).map_err(|e| match e {
+            vps::mesh::MeshError::TooLarge { kept_bytes, limit } => anyhow::anyhow!(
+                "memory limit too small: the mesh needs more than {} in memory ({} kept when it reached the {} this run \
+                 may use for it)",
+                human_bytes(limit),
+                human_bytes(kept_bytes),
+                human_bytes(limit)
+            ),
+            e => e.into(),
+        })?
     };
     pb.finish_and_clear();
-    if let Some(limit) = limit.filter(|&l| budget::mesh_bytes(&mesh) > l) {
+    // A scene is assembled from its meshes before it can be counted.
+    if let Some(limit) = limit.filter(|&l| mesh.approx_bytes() > l) {
         bail!(
             "memory limit too small: the mesh alone needs {} in memory, more than the {} this run may use for it",
-            human_bytes(budget::mesh_bytes(&mesh)),
+            human_bytes(mesh.approx_bytes()),
             human_bytes(limit)
         );
     }
