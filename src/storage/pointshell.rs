@@ -291,6 +291,10 @@ fn check_header(h: &RawPsHeader) -> Result<(), (&'static str, String)> {
 
 /// Write `shell` to `path` atomically (temporary file in the same directory, then rename).
 /// Returns the file's length.
+///
+/// Refuses (`InvalidInput`) a shell whose point and normal counts differ, or whose header
+/// [`PointshellFile::open`] would reject: e.g. points but no tree, `leaf_size` 0, or
+/// statistics that count more points than there are.
 pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: usize) -> Result<u64, StorageError> {
     let path = path.as_ref();
     let invalid = |what: String| StorageError::InvalidInput {
@@ -335,6 +339,8 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
         nodes_crc: crc32fast::hash(tree),
         header_crc: 0,
     };
+    // What the reader would refuse is refused here, so that every file written opens.
+    check_header(&h).map_err(|(field, reason)| invalid(format!("header field {field} would be invalid: {reason}")))?;
     h.header_crc = h.compute_crc();
 
     let mut bytes = Vec::with_capacity(end as usize);
