@@ -2,8 +2,9 @@
 //! `docs/FORMAT.md`).
 //!
 //! A file is a header, the brick payloads (each compressed on its own), a sorted brick index
-//! and a sorted table of inside runs. Opening maps the file and checks the header, the
-//! layout and the checksums of the two tables, which costs milliseconds whatever the size;
+//! and a sorted table of inside runs. Opening maps the file and checks the header (each
+//! field within the format's limits and consistent with the others), the layout and the
+//! checksums of the two tables, which costs milliseconds whatever the size;
 //! a lookup then binary-searches the mapped index and decompresses only the brick it needs.
 //!
 //! Files are never written in place: [`VoxmapWriter`] writes a temporary file beside the
@@ -592,10 +593,13 @@ impl VoxmapFile {
         }
     }
 
-    /// Check everything: every checksum, every brick's values, the order and range of keys
-    /// and runs, that no key is both stored and in a run, that payloads tile their section,
-    /// and that recounting the voxels gives the header's counts. The error names the first
-    /// bad part.
+    /// Check everything, the data against the header: every checksum, every brick's values
+    /// within the header's layers ([`StorageError::ValueOutOfRange`]), every key inside the
+    /// grid ([`StorageError::KeyOutOfRange`]) and in order, every run inside the grid
+    /// ([`StorageError::RunOutOfRange`]), sorted and disjoint, that no key is both stored and
+    /// in a run, that payloads tile their section, and that recounting the voxels gives the
+    /// header's counts ([`StorageError::HeaderMismatch`]). The error names the first
+    /// contradiction.
     pub fn verify(&self) -> Result<VerifyReport, StorageError> {
         self.scan(false).map(|(report, _)| report)
     }
