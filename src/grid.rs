@@ -120,14 +120,23 @@ impl Grid {
         self.dims.map(|d| d >> BRICK_SHIFT)
     }
 
-    /// Total number of voxels.
+    /// Total number of voxels, or `u64::MAX` if it does not fit (never a wrapped count).
+    /// Grids from [`Grid::around`] and from opened files always fit.
     pub fn voxel_count(&self) -> u64 {
-        self.dims.iter().map(|&d| d as u64).product()
+        self.checked_voxel_count().unwrap_or(u64::MAX)
     }
 
-    /// Total number of brick positions.
+    /// Total number of voxels, or `None` if the count does not fit in a `u64`.
+    pub fn checked_voxel_count(&self) -> Option<u64> {
+        let [x, y, z] = self.dims.map(|d| d as u64);
+        x.checked_mul(y)?.checked_mul(z)
+    }
+
+    /// Total number of brick positions, or `u64::MAX` if it does not fit (never a wrapped
+    /// count). Grids from [`Grid::around`] and from opened files always fit.
     pub fn brick_count(&self) -> u64 {
-        self.brick_dims().iter().map(|&d| d as u64).product()
+        let [x, y, z] = self.brick_dims().map(|d| d as u64);
+        x.checked_mul(y).and_then(|xy| xy.checked_mul(z)).unwrap_or(u64::MAX)
     }
 
     /// The key of the brick at brick coordinates `b`: z fastest, so one (x, y) column of bricks

@@ -1,5 +1,6 @@
 //! Arbitrary bytes as a `.vps` pointshell file: opening must return an error or a file whose
-//! tree, points and normals can all be walked by plain indexing, never panic.
+//! tree, points and normals can all be walked by plain indexing, whose header values are within
+//! the format's limits, and which `verify` checks without a panic.
 //!
 //! The first input byte is a mode: if its low bit is set, the section CRCs and the header CRC
 //! are recomputed before opening, so the fuzzer reaches the layout and tree checks behind
@@ -74,6 +75,18 @@ fn walk(file: &PointshellFile) {
         }
     }
     std::hint::black_box(sum);
+
+    // The header semantics open checks, as `vps info` prints them.
+    assert!(h.origin.is_finite() && h.voxel_size.is_finite() && h.voxel_size > 0.0);
+    let s = h.stats;
+    for count in [s.interior_points, s.boundary_points_recovered, s.normal_fallbacks, s.voxmap_mismatches, s.two_sided_points] {
+        assert!(count <= h.points);
+    }
+    assert!(h.tree_depth as u64 <= h.nodes.saturating_sub(1) / 2);
+    // The full check: an error or a report that agrees with the header.
+    if let Ok(r) = file.verify() {
+        assert_eq!((r.points, r.nodes, r.tree_depth), (h.points, h.nodes, h.tree_depth));
+    }
 
     let shell = file.to_pointshell();
     assert_eq!(shell.len(), points.len());

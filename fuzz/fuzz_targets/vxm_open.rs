@@ -1,5 +1,6 @@
-//! Arbitrary bytes as a `.vxm` file: opening, probing, verifying and loading must return
-//! errors, never panic.
+//! Arbitrary bytes as a `.vxm` file: opening, the header values `vps info` derives, probing,
+//! verifying and loading must return errors, never panic; a file that opens has header values
+//! within the format's limits, and one that verifies has the header's counts.
 //!
 //! The first input byte is a mode: if its low bit is set, the checksums of the rest are
 //! recomputed before opening. Random mutations almost never keep a CRC valid, so without
@@ -25,6 +26,15 @@ fn probe(data: &[u8]) {
     let Ok(file) = VoxmapFile::from_bytes(data) else {
         return;
     };
+    // What `vps info` derives from the header: exact, never wrapped, for any file that opens.
+    let h = file.header();
+    let voxels: u128 = h.grid.dims.iter().map(|&d| d as u128).product();
+    assert_eq!(h.grid_voxels() as u128, voxels, "grid_voxels wrapped");
+    assert_eq!(h.uncompressed_bytes() as u128, h.counts.bricks_stored as u128 * 512);
+    let c = h.counts;
+    assert!(c.bricks_stored as u128 + c.inside_tile_bricks as u128 <= h.grid.brick_count() as u128);
+    assert!(c.surface_voxels as u128 + c.inner_voxels as u128 <= voxels);
+    assert!(h.grid.voxel_size.is_finite() && h.grid.voxel_size > 0.0 && h.grid.origin.is_finite());
     let dims = file.grid().dims;
     let bricks = file.grid().brick_count();
     // Corners, beyond the grid, and points picked by the input's own bytes.
@@ -45,7 +55,9 @@ fn probe(data: &[u8]) {
     for key in [0, 1, bricks / 2, bricks.saturating_sub(1), bricks, u64::MAX] {
         let _ = file.brick(key);
     }
-    let _ = file.verify();
+    if let Ok(report) = file.verify() {
+        assert_eq!(report.counts, h.counts, "verify passed with counts unlike the header's");
+    }
     let _ = file.to_voxmap();
 }
 

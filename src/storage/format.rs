@@ -228,38 +228,59 @@ thread_local! {
     static DECODER: std::cell::RefCell<Option<DecodeState>> = const { std::cell::RefCell::new(None) };
 }
 
+/// Why a payload did not decode to a valid brick.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    /// The payload is not a zstd frame of exactly 512 bytes (or is too long to be one).
+    #[error("{0}")]
+    Malformed(String),
+    /// The payload decodes, but one value is outside `[-(layers+1), layers+1]`.
+    #[error("voxel {voxel} has value {value} outside [-{limit}, {limit}]")]
+    ValueOutOfRange {
+        /// Local index of the first such voxel.
+        voxel: usize,
+        /// Its value.
+        value: i8,
+        /// `layers + 1`, the largest magnitude allowed.
+        limit: i16,
+    },
+}
+
 /// Decompress one payload and check it holds 512 values within `[-(layers+1), layers+1]`.
 ///
-/// The error is a reason for a message; the caller knows which brick it was. A
-/// decompression context is kept per thread because creating one costs more than
-/// decompressing a brick.
-pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, String> {
+/// The error says why; the caller knows which brick it was. A decompression context is
+/// kept per thread because creating one costs more than decompressing a brick.
+pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeError> {
     if payload.len() > MAX_PAYLOAD_BYTES {
-        return Err(format!(
+        return Err(DecodeError::Malformed(format!(
             "payload of {} bytes exceeds the limit of {MAX_PAYLOAD_BYTES}",
             payload.len()
-        ));
+        )));
     }
     let mut residuals = [0u8; BRICK_VOXELS];
-    let n = DECODER.with(|cell| -> Result<usize, String> {
-        let mut slot = cell.try_borrow_mut().map_err(|e| e.to_string())?;
-        let state = match &mut *slot {
-            Some(state) => state,
-            empty => empty.insert(DecodeState {
-                zstd: zstd::bulk::Decompressor::new().map_err(|e| format!("zstd: {e}"))?,
-                frame: Vec::with_capacity(MAX_PAYLOAD_BYTES + 4),
-            }),
-        };
-        state.frame.clear();
-        state.frame.extend_from_slice(&ZSTD_FRAME_MAGIC);
-        state.frame.extend_from_slice(payload);
-        state
-            .zstd
-            .decompress_to_buffer(&state.frame[..], &mut residuals[..])
-            .map_err(|e| format!("zstd: {e}"))
-    })?;
+    let n = DECODER
+        .with(|cell| -> Result<usize, String> {
+            let mut slot = cell.try_borrow_mut().map_err(|e| e.to_string())?;
+            let state = match &mut *slot {
+                Some(state) => state,
+                empty => empty.insert(DecodeState {
+                    zstd: zstd::bulk::Decompressor::new().map_err(|e| format!("zstd: {e}"))?,
+                    frame: Vec::with_capacity(MAX_PAYLOAD_BYTES + 4),
+                }),
+            };
+            state.frame.clear();
+            state.frame.extend_from_slice(&ZSTD_FRAME_MAGIC);
+            state.frame.extend_from_slice(payload);
+            state
+                .zstd
+                .decompress_to_buffer(&state.frame[..], &mut residuals[..])
+                .map_err(|e| format!("zstd: {e}"))
+        })
+        .map_err(DecodeError::Malformed)?;
     if n != BRICK_VOXELS {
-        return Err(format!("decompressed to {n} bytes instead of {BRICK_VOXELS}"));
+        return Err(DecodeError::Malformed(format!(
+            "decompressed to {n} bytes instead of {BRICK_VOXELS}"
+        )));
     }
     let values = unpredict(&residuals);
     let limit = i8::try_from(layers as u16 + 1).unwrap_or(i8::MAX);
@@ -267,8 +288,12 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, String> {
     if values.iter().fold(true, |ok, &v| ok & (-limit..=limit).contains(&v)) {
         return Ok(values);
     }
-    let i = values.iter().position(|&v| !(-limit..=limit).contains(&v)).unwrap_or(0);
-    Err(format!("voxel {i} has value {} outside [-{limit}, {limit}]", values[i]))
+    let voxel = values.iter().position(|&v| !(-limit..=limit).contains(&v)).unwrap_or(0);
+    Err(DecodeError::ValueOutOfRange {
+        voxel,
+        value: values[voxel],
+        limit: limit as i16,
+    })
 }
 
 #[cfg(test)]

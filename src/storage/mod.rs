@@ -2,8 +2,9 @@
 //! `docs/FORMAT.md`).
 //!
 //! A file is a header, the brick payloads (each compressed on its own), a sorted brick index
-//! and a sorted table of inside runs. Opening maps the file and checks the header, the
-//! layout and the checksums of the two tables, which costs milliseconds whatever the size;
+//! and a sorted table of inside runs. Opening maps the file and checks the header (each
+//! field within the format's limits and consistent with the others), the layout and the
+//! checksums of the two tables, which costs milliseconds whatever the size;
 //! a lookup then binary-searches the mapped index and decompresses only the brick it needs.
 //!
 //! Files are never written in place: [`VoxmapWriter`] writes a temporary file beside the
@@ -27,7 +28,7 @@ use rayon::prelude::*;
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
 use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS};
 use format::{
-    align8, decode_brick, encode_brick, new_compressor, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
+    align8, decode_brick, encode_brick, new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
     HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
 };
 pub use temp::write_atomically;
@@ -119,6 +120,75 @@ pub enum StorageError {
         key: u64,
         /// What went wrong.
         reason: String,
+    },
+    /// A header field passes the header checksum but breaks the format's rules, alone or
+    /// against the other fields (`docs/FORMAT.md`, "Opening"): the file was not written by a
+    /// valid writer, and nothing derived from the field can be trusted.
+    #[error("{path}: header field {field} is invalid: {reason}")]
+    InvalidHeader {
+        /// The file.
+        path: PathBuf,
+        /// The field, as named in `docs/FORMAT.md`, e.g. `dims` or `voxel_size`.
+        field: &'static str,
+        /// Its value and the rule it breaks.
+        reason: String,
+    },
+    /// A header count disagrees with the count recomputed from the data it describes
+    /// (found by `verify`, which reads every section).
+    #[error("{path}: header {field} is {header}, but the data hold {data}")]
+    HeaderMismatch {
+        /// The file.
+        path: PathBuf,
+        /// The header field, e.g. `surface_voxels` or `tree_depth`.
+        field: &'static str,
+        /// The value in the header.
+        header: u64,
+        /// The value recomputed from the data.
+        data: u64,
+    },
+    /// A stored brick's key lies outside the grid the header describes.
+    #[error("{path}: index entry {index} has key {key}, beyond the grid's {brick_count} bricks")]
+    KeyOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// Position of the entry in the index.
+        index: u64,
+        /// Its key.
+        key: u64,
+        /// Bricks in the grid: keys must be below this.
+        brick_count: u64,
+    },
+    /// An inside run is empty or reaches beyond the grid the header describes.
+    #[error("{path}: inside run {index} [{start}, {end}) is empty or beyond the grid's {brick_count} bricks")]
+    RunOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// Position of the run in the table.
+        index: u64,
+        /// Its first key.
+        start: u64,
+        /// One past its last key.
+        end: u64,
+        /// Bricks in the grid: runs must end at or before this.
+        brick_count: u64,
+    },
+    /// A stored voxel value is beyond what the header's number of layers allows.
+    #[error(
+        "{path}: brick key {key} voxel {voxel} has value {value}, outside [-{limit}, {limit}] for {layers} layers"
+    )]
+    ValueOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// The brick key.
+        key: u64,
+        /// Local index of the voxel in its brick.
+        voxel: usize,
+        /// Its value.
+        value: i8,
+        /// The header's number of layers.
+        layers: u8,
+        /// `layers + 1`, the largest magnitude a value may have.
+        limit: i16,
     },
     /// A field or table is inconsistent; `what` names it.
     #[error("{path} is corrupt: {what}")]
@@ -273,24 +343,81 @@ fn to_usize(path: &Path, n: u64, what: &str) -> Result<usize, StorageError> {
 }
 
 /// Check that a grid can be addressed by the format; the reader and the writer share this.
-fn check_grid(grid: &Grid) -> Result<(), String> {
+/// The error names the header field at fault and why (`docs/FORMAT.md`, "Limits").
+fn check_grid(grid: &Grid) -> Result<(), (&'static str, String)> {
     if !grid.origin.is_finite() {
-        return Err(format!("grid origin {:?} is not finite", grid.origin.to_array()));
+        return Err(("origin", format!("{:?} is not finite", grid.origin.to_array())));
     }
     if !(grid.voxel_size.is_finite() && grid.voxel_size > 0.0) {
-        return Err(format!(
-            "voxel size {} is not a positive finite number",
-            grid.voxel_size
+        return Err((
+            "voxel_size",
+            format!("{} is not a positive finite number", grid.voxel_size),
         ));
     }
     for (a, &d) in grid.dims.iter().enumerate() {
         if d == 0 || d % BRICK != 0 || d as u64 > MAX_DIM {
-            return Err(format!(
-                "grid dimension {a} is {d}: must be a positive multiple of {BRICK} up to {MAX_DIM}"
+            return Err((
+                "dims",
+                format!("dimension {a} is {d}: must be a positive multiple of {BRICK} up to {MAX_DIM}"),
+            ));
+        }
+    }
+    if grid.checked_voxel_count().is_none() {
+        let [x, y, z] = grid.dims.map(|d| d as u128);
+        return Err((
+            "dims",
+            format!(
+                "{} × {} × {} = {} voxels, more than a 64-bit count holds",
+                grid.dims[0],
+                grid.dims[1],
+                grid.dims[2],
+                x * y * z
+            ),
+        ));
+    }
+    for a in 0..3 {
+        let far = grid.origin[a] + grid.dims[a] as f64 * grid.voxel_size;
+        if !far.is_finite() {
+            return Err((
+                "voxel_size",
+                format!(
+                    "{}: the grid's far corner along axis {a}, origin + dims × voxel_size, is not finite",
+                    grid.voxel_size
+                ),
+            ));
+        }
+        if !(grid.origin[a] / grid.voxel_size).is_finite() {
+            return Err((
+                "origin",
+                format!(
+                    "{:?} is not finite in voxels of {} (origin / voxel_size overflows)",
+                    grid.origin.to_array(),
+                    grid.voxel_size
+                ),
             ));
         }
     }
     Ok(())
+}
+
+impl Header {
+    /// Voxels in the grid, `nx·ny·nz`, for `vps info`.
+    ///
+    /// Exact for every header [`VoxmapFile`] returns: opening rejects grids whose voxel
+    /// count does not fit in a `u64`. For a hand-made header beyond that limit it saturates
+    /// at `u64::MAX` rather than wrapping.
+    pub fn grid_voxels(&self) -> u64 {
+        self.grid.checked_voxel_count().unwrap_or(u64::MAX)
+    }
+
+    /// Bytes the stored bricks take uncompressed: 512 per stored brick.
+    ///
+    /// Exact for every header [`VoxmapFile`] returns (opening checks that the stored bricks
+    /// fit in the grid, whose voxel count fits in a `u64`); saturates rather than wrapping
+    /// otherwise.
+    pub fn uncompressed_bytes(&self) -> u64 {
+        self.counts.bricks_stored.saturating_mul(BRICK_VOXELS as u64)
+    }
 }
 
 impl VoxmapFile {
@@ -386,10 +513,20 @@ impl VoxmapFile {
                 key: e.key,
             });
         }
-        decode_brick(payload, self.header.layers).map_err(|reason| StorageError::Decompress {
-            path: self.path.clone(),
-            key: e.key,
-            reason,
+        decode_brick(payload, self.header.layers).map_err(|err| match err {
+            DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
+                path: self.path.clone(),
+                key: e.key,
+                voxel,
+                value,
+                layers: self.header.layers,
+                limit,
+            },
+            DecodeError::Malformed(reason) => StorageError::Decompress {
+                path: self.path.clone(),
+                key: e.key,
+                reason,
+            },
         })
     }
 
@@ -459,10 +596,13 @@ impl VoxmapFile {
         }
     }
 
-    /// Check everything: every checksum, every brick's values, the order and range of keys
-    /// and runs, that no key is both stored and in a run, that payloads tile their section,
-    /// and that recounting the voxels gives the header's counts. The error names the first
-    /// bad part.
+    /// Check everything, the data against the header: every checksum, every brick's values
+    /// within the header's layers ([`StorageError::ValueOutOfRange`]), every key inside the
+    /// grid ([`StorageError::KeyOutOfRange`]) and in order, every run inside the grid
+    /// ([`StorageError::RunOutOfRange`]), sorted and disjoint, that no key is both stored and
+    /// in a run, that payloads tile their section, and that recounting the voxels gives the
+    /// header's counts ([`StorageError::HeaderMismatch`]). The error names the first
+    /// contradiction.
     pub fn verify(&self) -> Result<VerifyReport, StorageError> {
         self.scan(false).map(|(report, _)| report)
     }
@@ -491,13 +631,12 @@ impl VoxmapFile {
         let mut prev_key: Option<u64> = None;
         for (i, e) in index.iter().enumerate() {
             if e.key >= self.brick_count {
-                return Err(corrupt(
-                    path,
-                    format!(
-                        "index entry {i}: key {} is beyond the grid's {} bricks",
-                        e.key, self.brick_count
-                    ),
-                ));
+                return Err(StorageError::KeyOutOfRange {
+                    path: path.clone(),
+                    index: i as u64,
+                    key: e.key,
+                    brick_count: self.brick_count,
+                });
             }
             if let Some(p) = prev_key.filter(|&p| p >= e.key) {
                 return Err(corrupt(
@@ -546,13 +685,13 @@ impl VoxmapFile {
         let mut prev_end = 0u64;
         for (i, r) in runs.iter().enumerate() {
             if r.start >= r.end || r.end > self.brick_count {
-                return Err(corrupt(
-                    path,
-                    format!(
-                        "inside run {i} [{}, {}) is empty or beyond the grid's {} bricks",
-                        r.start, r.end, self.brick_count
-                    ),
-                ));
+                return Err(StorageError::RunOutOfRange {
+                    path: path.clone(),
+                    index: i as u64,
+                    start: r.start,
+                    end: r.end,
+                    brick_count: self.brick_count,
+                });
             }
             if i > 0 && r.start < prev_end {
                 return Err(corrupt(
@@ -623,7 +762,7 @@ impl VoxmapFile {
             .and_then(|n| n.checked_add(counts.inner_voxels))
             .ok_or_else(|| corrupt(path, "inner voxel count overflows"))?;
         let stored = self.header.counts;
-        for (name, have, want) in [
+        for (field, header, data) in [
             ("surface_voxels", stored.surface_voxels, counts.surface_voxels),
             ("inner_voxels", stored.inner_voxels, counts.inner_voxels),
             ("bricks_stored", stored.bricks_stored, counts.bricks_stored),
@@ -633,11 +772,13 @@ impl VoxmapFile {
                 counts.inside_tile_bricks,
             ),
         ] {
-            if have != want {
-                return Err(corrupt(
-                    path,
-                    format!("header {name} is {have}, but the data hold {want}"),
-                ));
+            if header != data {
+                return Err(StorageError::HeaderMismatch {
+                    path: path.clone(),
+                    field,
+                    header,
+                    data,
+                });
             }
         }
         let report = VerifyReport {
@@ -656,6 +797,69 @@ struct ChunkScan {
     surface: u64,
     inner: u64,
     bricks: Vec<Brick>,
+}
+
+/// Check the header's counts against the grid and against each other (`docs/FORMAT.md`,
+/// "Opening"), in 128-bit arithmetic so that no product wraps. The error names the field at
+/// fault and why.
+fn check_counts(h: &RawHeader, brick_count: u64) -> Result<(), (&'static str, String)> {
+    let per_brick = BRICK_VOXELS as u128;
+    let bricks = brick_count as u128;
+    let stored = h.bricks_stored as u128;
+    let tiles = h.inside_tile_bricks as u128;
+    let runs = h.inside_runs as u128;
+    let (surface, inner) = (h.surface_voxels as u128, h.inner_voxels as u128);
+    if stored > bricks {
+        return Err((
+            "bricks_stored",
+            format!("{stored} stored bricks in a grid of {bricks} bricks"),
+        ));
+    }
+    if tiles > bricks - stored {
+        return Err((
+            "inside_tile_bricks",
+            format!("{tiles} inside-tile bricks and {stored} stored bricks, more than the grid's {bricks}"),
+        ));
+    }
+    if runs > tiles {
+        return Err((
+            "inside_runs",
+            format!("{runs} inside runs for {tiles} inside-tile bricks: every run holds at least one brick"),
+        ));
+    }
+    if tiles > 0 && runs == 0 {
+        return Err((
+            "inside_tile_bricks",
+            format!("{tiles} inside-tile bricks but no inside runs to hold them"),
+        ));
+    }
+    if surface > per_brick * stored {
+        return Err((
+            "surface_voxels",
+            format!(
+                "{surface}, more than the {} voxels of the {stored} stored bricks",
+                per_brick * stored
+            ),
+        ));
+    }
+    let (least, most) = (per_brick * tiles, per_brick * (stored + tiles) - surface);
+    if inner < least || inner > most {
+        return Err((
+            "inner_voxels",
+            format!(
+                "{inner}: must be between 512 · inside_tile_bricks = {least} and 512 · (bricks_stored + \
+                 inside_tile_bricks) − surface_voxels = {most}"
+            ),
+        ));
+    }
+    let payload = h.payload_bytes as u128;
+    if payload < stored || payload > stored * MAX_PAYLOAD_BYTES as u128 {
+        return Err((
+            "payload_bytes",
+            format!("{payload} for {stored} payloads of 1 to {MAX_PAYLOAD_BYTES} bytes each"),
+        ));
+    }
+    Ok(())
 }
 
 /// Validate the header and layout of a file image; touches no payload.
@@ -702,40 +906,43 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
         });
     }
     let bad = |what: String| corrupt(path, format!("header: {what}"));
+    let field = |field: &'static str, reason: String| StorageError::InvalidHeader {
+        path: path.to_path_buf(),
+        field,
+        reason,
+    };
     if h.header_bytes as usize != HEADER_BYTES {
-        return Err(bad(format!(
-            "header_bytes is {}, expected {HEADER_BYTES}",
-            h.header_bytes
-        )));
+        return Err(field(
+            "header_bytes",
+            format!("{}, expected {HEADER_BYTES}", h.header_bytes),
+        ));
     }
     if h.brick_shift as u32 != BRICK_SHIFT || h.brick_edge as u32 != BRICK {
-        return Err(bad(format!(
-            "brick edge {} (shift {}), this build uses {BRICK} (shift {BRICK_SHIFT})",
-            h.brick_edge, h.brick_shift
-        )));
+        return Err(field(
+            "brick_edge",
+            format!(
+                "brick edge {} (shift {}), this build uses {BRICK} (shift {BRICK_SHIFT})",
+                h.brick_edge, h.brick_shift
+            ),
+        ));
     }
     if h.codec != CODEC_ZSTD_DELTA {
-        return Err(bad(format!("unknown codec {}", h.codec)));
+        return Err(field("codec", format!("unknown codec {}", h.codec)));
     }
     if h.layers > MAX_LAYERS {
-        return Err(bad(format!("layers is {}, at most {MAX_LAYERS}", h.layers)));
+        return Err(field("layers", format!("{}, at most {MAX_LAYERS}", h.layers)));
     }
     if h.reserved != [0; 4] || h.reserved2 != 0 {
-        return Err(bad("reserved fields are not zero".into()));
+        return Err(field("reserved", "not zero".into()));
     }
     let grid = Grid {
         origin: DVec3::from_array(h.origin),
         voxel_size: h.voxel_size,
         dims: h.dims,
     };
-    check_grid(&grid).map_err(bad)?;
+    check_grid(&grid).map_err(|(name, reason)| field(name, reason))?;
     let brick_count = grid.brick_count();
-    if h.bricks_stored > brick_count || h.inside_tile_bricks > brick_count {
-        return Err(bad(format!(
-            "{} stored and {} inside-tile bricks in a grid of {brick_count}",
-            h.bricks_stored, h.inside_tile_bricks
-        )));
-    }
+    check_counts(&h, brick_count).map_err(|(name, reason)| field(name, reason))?;
 
     if len < h.file_bytes {
         return Err(truncated(h.file_bytes));
@@ -746,42 +953,42 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), StorageErro
             h.file_bytes
         )));
     }
-    let overflow = |what: &str| bad(format!("{what} overflows"));
+    let overflow = |name: &'static str, what: &str| field(name, format!("{what} overflows 64 bits"));
     if h.payload_offset != HEADER_BYTES as u64 {
-        return Err(bad(format!(
-            "payload_offset is {}, expected {HEADER_BYTES}",
-            h.payload_offset
-        )));
+        return Err(field(
+            "payload_offset",
+            format!("{}, expected {HEADER_BYTES}", h.payload_offset),
+        ));
     }
     let payload_end = h
         .payload_offset
         .checked_add(h.payload_bytes)
-        .ok_or_else(|| overflow("payload end"))?;
-    let index_offset = align8(payload_end).ok_or_else(|| overflow("index offset"))?;
+        .ok_or_else(|| overflow("payload_bytes", "payload_offset + payload_bytes"))?;
+    let index_offset = align8(payload_end).ok_or_else(|| overflow("payload_bytes", "the index offset"))?;
     if h.index_offset != index_offset {
-        return Err(bad(format!(
-            "index_offset is {}, expected {index_offset}",
-            h.index_offset
-        )));
+        return Err(field(
+            "index_offset",
+            format!("{}, expected {index_offset}", h.index_offset),
+        ));
     }
     let index_end = h
         .bricks_stored
         .checked_mul(INDEX_ENTRY_BYTES as u64)
         .and_then(|n| n.checked_add(index_offset))
-        .ok_or_else(|| overflow("index end"))?;
+        .ok_or_else(|| overflow("bricks_stored", "the index end"))?;
     if h.runs_offset != index_end {
-        return Err(bad(format!("runs_offset is {}, expected {index_end}", h.runs_offset)));
+        return Err(field("runs_offset", format!("{}, expected {index_end}", h.runs_offset)));
     }
     let runs_end = h
         .inside_runs
         .checked_mul(RUN_ENTRY_BYTES as u64)
         .and_then(|n| n.checked_add(index_end))
-        .ok_or_else(|| overflow("run table end"))?;
+        .ok_or_else(|| overflow("inside_runs", "the run table end"))?;
     if runs_end != h.file_bytes {
-        return Err(bad(format!(
-            "sections end at {runs_end}, but file_bytes is {}",
-            h.file_bytes
-        )));
+        return Err(field(
+            "file_bytes",
+            format!("{}, but the sections end at {runs_end}", h.file_bytes),
+        ));
     }
     let layout = Layout {
         payload: to_usize(path, h.payload_offset, "payload offset")?..to_usize(path, payload_end, "payload end")?,
@@ -923,7 +1130,7 @@ impl VoxmapWriter {
             path: path.clone(),
             what,
         };
-        check_grid(&grid).map_err(invalid)?;
+        check_grid(&grid).map_err(|(field, reason)| invalid(format!("grid {field} {reason}")))?;
         if layers > MAX_LAYERS {
             return Err(invalid(format!("layers is {layers}, at most {MAX_LAYERS}")));
         }

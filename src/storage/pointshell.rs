@@ -198,6 +198,19 @@ pub struct PointshellHeader {
     pub file_bytes: u64,
 }
 
+/// What [`PointshellFile::verify`] checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointshellVerifyReport {
+    /// Points (and normals) checked.
+    pub points: u64,
+    /// Tree nodes checked.
+    pub nodes: u64,
+    /// Leaves among them.
+    pub leaves: u64,
+    /// Depth of the deepest node, equal to the header's `tree_depth`.
+    pub tree_depth: u32,
+}
+
 /// Where each section must lie for `points` points and `nodes` nodes after a header of
 /// `header_bytes`.
 fn layout(header_bytes: usize, points: u64, nodes: u64) -> Option<[u64; 4]> {
@@ -209,8 +222,79 @@ fn layout(header_bytes: usize, points: u64, nodes: u64) -> Option<[u64; 4]> {
     Some([p, n, t, end])
 }
 
+/// Check the header's fields against the format's rules and each other, before anything is
+/// derived from them (`docs/FORMAT.md`, "Opening"). The error names the field at fault and
+/// why. Every bound is one a file from [`write_pointshell`] meets.
+fn check_header(h: &RawPsHeader) -> Result<(), (&'static str, String)> {
+    if !h.origin.iter().all(|c| c.is_finite()) {
+        return Err(("origin", format!("{:?} is not finite", h.origin)));
+    }
+    if !(h.voxel_size.is_finite() && h.voxel_size > 0.0) {
+        return Err((
+            "voxel_size",
+            format!("{} is not a positive finite number", h.voxel_size),
+        ));
+    }
+    let n = h.points;
+    if n > u32::MAX as u64 {
+        return Err((
+            "points",
+            format!("{n}: tree nodes index points with 32 bits, so at most {}", u32::MAX),
+        ));
+    }
+    // A tree over n ≥ 1 points, each leaf holding at least one, has 2·leaves − 1 ≤ 2n − 1
+    // nodes, which 32-bit child indices must reach.
+    let most_nodes = (2 * n).saturating_sub(1).min(u32::MAX as u64);
+    if (n == 0) != (h.nodes == 0) || h.nodes > most_nodes {
+        return Err((
+            "nodes",
+            format!(
+                "{} tree nodes for {n} points: no points have no nodes, and n ≥ 1 points have 1 to \
+                 min(2n − 1, 2³² − 1) = {most_nodes}",
+                h.nodes
+            ),
+        ));
+    }
+    // Every internal node has two children, so each level below the root adds at least two.
+    if h.tree_depth as u64 > h.nodes.saturating_sub(1) / 2 {
+        return Err((
+            "tree_depth",
+            format!(
+                "{} for {} nodes: a tree of m nodes is at most (m − 1)/2 deep",
+                h.tree_depth, h.nodes
+            ),
+        ));
+    }
+    if n > 0 && h.leaf_size == 0 {
+        return Err(("leaf_size", format!("0 for {n} points: leaves hold at least one point")));
+    }
+    for (field, count) in [
+        ("interior_points", h.interior_points),
+        ("boundary_points_recovered", h.boundary_points_recovered),
+        ("normal_fallbacks", h.normal_fallbacks),
+        ("voxmap_mismatches", h.voxmap_mismatches),
+        ("two_sided_points", h.two_sided_points),
+    ] {
+        if count > n {
+            return Err((field, format!("{count}, more than the {n} points it counts among")));
+        }
+    }
+    let phases = h.interior_points as u128 + h.boundary_points_recovered as u128;
+    if phases > n as u128 {
+        return Err((
+            "boundary_points_recovered",
+            format!("interior_points + boundary_points_recovered = {phases}, more than the {n} points"),
+        ));
+    }
+    Ok(())
+}
+
 /// Write `shell` to `path` atomically (temporary file in the same directory, then rename).
 /// Returns the file's length.
+///
+/// Refuses (`InvalidInput`) a shell whose point and normal counts differ, or whose header
+/// [`PointshellFile::open`] would reject: e.g. points but no tree, `leaf_size` 0, or
+/// statistics that count more points than there are.
 pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: usize) -> Result<u64, StorageError> {
     let path = path.as_ref();
     let invalid = |what: String| StorageError::InvalidInput {
@@ -255,6 +339,8 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
         nodes_crc: crc32fast::hash(tree),
         header_crc: 0,
     };
+    // What the reader would refuse is refused here, so that every file written opens.
+    check_header(&h).map_err(|(field, reason)| invalid(format!("header field {field} would be invalid: {reason}")))?;
     h.header_crc = h.compute_crc();
 
     let mut bytes = Vec::with_capacity(end as usize);
@@ -346,6 +432,11 @@ impl PointshellFile {
                 computed,
             });
         }
+        check_header(&h).map_err(|(field, reason)| StorageError::InvalidHeader {
+            path: path.clone(),
+            field,
+            reason,
+        })?;
         let [p, n, t, end] =
             layout(header_bytes, h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
         if [h.points_offset, h.normals_offset, h.nodes_offset, h.file_bytes] != [p, n, t, end]
@@ -388,9 +479,6 @@ impl PointshellFile {
             if crc32fast::hash(&bytes[range.clone()]) != crc {
                 return Err(corrupt(format!("{name} section checksum mismatch")));
             }
-        }
-        if !(h.voxel_size.is_finite() && h.voxel_size > 0.0 && h.origin.iter().all(|c| c.is_finite())) {
-            return Err(corrupt("voxel size or origin is not finite".into()));
         }
         let header = PointshellHeader {
             version: h.version,
@@ -455,6 +543,50 @@ impl PointshellFile {
             }
         }
         Ok(())
+    }
+
+    /// Check everything [`PointshellFile::open`] leaves out, which costs O(n log n): every
+    /// point finite, every normal a unit vector (to within 10⁻³), the sphere tree's full
+    /// invariants ([`SphereTree::validate`]: every node reachable once, depths, leaves of 1 to
+    /// `leaf_size` points, spheres that hold their points, cones that hold their normals), and
+    /// the header's `tree_depth` equal to the deepest node. The error names the first
+    /// contradiction.
+    pub fn verify(&self) -> Result<PointshellVerifyReport, StorageError> {
+        let corrupt = |what: String| StorageError::Corrupt {
+            path: self.path.clone(),
+            what,
+        };
+        let (points, normals, nodes) = (self.points(), self.normals(), self.nodes());
+        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+            return Err(corrupt(format!("point {i} {:?} is not finite", points[i].to_array())));
+        }
+        if let Some(i) = normals
+            .iter()
+            .position(|v| !(v.is_finite() && (v.length() - 1.0).abs() <= 1e-3))
+        {
+            return Err(corrupt(format!(
+                "normal {i} {:?} is not a unit vector",
+                normals[i].to_array()
+            )));
+        }
+        let tree = SphereTree { nodes: nodes.to_vec() };
+        tree.validate(points, normals, self.header.leaf_size as usize)
+            .map_err(|reason| corrupt(format!("sphere tree: {reason}")))?;
+        let depth = nodes.iter().map(|n| n.depth).max().unwrap_or(0);
+        if depth != self.header.tree_depth {
+            return Err(StorageError::HeaderMismatch {
+                path: self.path.clone(),
+                field: "tree_depth",
+                header: self.header.tree_depth as u64,
+                data: depth as u64,
+            });
+        }
+        Ok(PointshellVerifyReport {
+            points: points.len() as u64,
+            nodes: nodes.len() as u64,
+            leaves: nodes.iter().filter(|n| n.children().is_none()).count() as u64,
+            tree_depth: depth,
+        })
     }
 
     /// The file's path.

@@ -626,7 +626,7 @@ fn info(path: &Path, json: bool) -> Result<()> {
     let h = f.header();
     let g = h.grid;
     let c = h.counts;
-    let uncompressed = c.bricks_stored * vps::grid::BRICK_VOXELS as u64;
+    let uncompressed = h.uncompressed_bytes();
     let ratio = uncompressed as f64 / h.payload_bytes.max(1) as f64;
     if json {
         let j = json!({
@@ -634,7 +634,7 @@ fn info(path: &Path, json: bool) -> Result<()> {
             "voxel_size": g.voxel_size,
             "origin": g.origin.to_array(),
             "dims": g.dims,
-            "grid_voxels": g.voxel_count(),
+            "grid_voxels": h.grid_voxels(),
             "layers": h.layers,
             "surface_voxels": c.surface_voxels,
             "inner_voxels": c.inner_voxels,
@@ -655,7 +655,7 @@ fn info(path: &Path, json: bool) -> Result<()> {
             g.dims[0],
             g.dims[1],
             g.dims[2],
-            g.voxel_count()
+            h.grid_voxels()
         );
         outln!("  voxel size       {}", g.voxel_size);
         outln!("  origin           {} {} {}", g.origin.x, g.origin.y, g.origin.z);
