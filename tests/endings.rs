@@ -73,6 +73,7 @@ impl Fixture {
             args(&["info", &f("ball.vps"), "--json"]),
             args(&["probe", &f("ball.vxm"), "--points", &f("points.txt")]),
             args(&["verify", &f("ball.vxm")]),
+            args(&["verify", &f("ball.vps")]),
             args(&["slice", &f("ball.vxm"), "--axis", "z", "--at", "0", "-o", &f("s.png")]),
             args(&["demo", "--out-dir", &f("demo"), "--voxel-size", "2"]),
             args(&["bench", &f("ball.obj"), "--voxel-sizes", "1"]),

@@ -148,7 +148,7 @@ enum Command {
         #[arg(long)]
         points: PathBuf,
     },
-    /// Check every checksum and count of a .vxm file.
+    /// Check every checksum and count of a .vxm file, or every point and tree node of a .vps file.
     Verify {
         /// The file.
         file: PathBuf,
@@ -330,6 +330,19 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         Command::Probe { file, points } => probe(&file, &points),
+        Command::Verify { file } if is_pointshell(&file) => {
+            let r = open_pointshell(&file)?
+                .verify()
+                .with_context(|| format!("{} failed verification", file.display()))?;
+            outln!(
+                "ok: {} points and normals, {} tree nodes ({} leaves, depth {}) checked",
+                r.points,
+                r.nodes,
+                r.leaves,
+                r.tree_depth
+            );
+            Ok(())
+        }
         Command::Verify { file } => {
             let f = open(&file)?;
             let r = f
