@@ -209,7 +209,7 @@ fn poses(seed: u64, random: usize) -> Vec<PoseArray> {
         [-50.0, 3.0, 2.0, 0.0, 1.0, 0.0, 0.0],       // far outside
         [0.0, 0.0, 1e9, 1.0, 2.0, 3.0, 4.0],         // very far
         [1e300, -1e300, 0.0, 1.0, 0.0, 0.0, 0.0],    // absurdly far: culled, no overflow
-        [1.1, -0.3, 0.7, 1e-300, 0.0, 1e-300, 0.0],  // a tiny quaternion: too small, an error
+        [1.1, -0.3, 0.7, 0.0, 0.0, 0.0, 0.0],        // a zero quaternion: an error
         [1.0 / 3.0, 0.1, 1.2, -0.7, 0.1, 0.7, 0.05], // negative w
     ];
     let mut rng = SplitMix(seed);
@@ -515,7 +515,7 @@ fn b_concurrent_reader_processes_agree() {
     let outputs: Vec<Output> = children.into_iter().map(|c| c.wait_with_output().unwrap()).collect();
 
     for (i, out) in outputs.iter().enumerate() {
-        // Exit 1: the one pose with a tiny quaternion fails; threads agreed (else stderr says so).
+        // Exit 1: the one pose with a zero quaternion fails; threads agreed (else stderr says so).
         assert_eq!(
             out.status.code(),
             Some(1),
@@ -717,7 +717,7 @@ fn c_readers_keep_their_mapping_across_a_rename() {
         !maps_deleted(&reader.child.id().to_string(), &files.vxm),
         "the old mapping outlived its handle"
     );
-    reader.finish(1); // the pose with a tiny quaternion failed
+    reader.finish(1); // the pose with a zero quaternion failed
     drop((keep_vm, keep_ps));
 }
 
