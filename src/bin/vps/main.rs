@@ -451,7 +451,14 @@ fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
     };
     let mesh = if vps::scene::is_scene_path(path) {
         let scene = vps::scene::Scene::load(path).context("loading the scene")?;
-        scene.to_mesh().context("loading the scene")?
+        // Each mesh is counted as it loads; the placed whole is counted below.
+        let each = vps::mesh::LoadOptions {
+            max_mesh_bytes: limit,
+            progress: None,
+        };
+        scene
+            .to_mesh_with(|p| Mesh::load_obj_with(p, &each))
+            .context("loading the scene")?
     } else {
         let options = vps::mesh::LoadOptions {
             max_mesh_bytes: limit,
