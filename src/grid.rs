@@ -7,6 +7,8 @@
 
 use glam::DVec3;
 
+use crate::mesh::MAX_COORDINATE;
+
 /// log2 of the brick edge in voxels.
 pub const BRICK_SHIFT: u32 = 3;
 /// Brick edge in voxels.
@@ -48,10 +50,6 @@ pub enum GridError {
     #[error("grid would have {0} columns of bricks across x and y (limit {MAX_COLUMNS}): use a larger voxel size")]
     TooManyColumns(u64),
 }
-
-/// Largest magnitude of a coordinate or a grid extent: products and squares of two such
-/// numbers (cross products, distances) stay finite in `f64`.
-pub const MAX_COORDINATE: f64 = 1e150;
 
 /// A regular grid of cubic voxels, padded and brick-aligned.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,16 +8,12 @@
 //! car, 28–30 over a 20× range of voxel counts), with a margin. It does not scale with the
 //! grid's volume, only with its surface.
 
-use crate::grid::MAX_COORDINATE;
 use crate::mesh::Mesh;
 
 use super::VoxelizeParams;
 
 /// Fraction of the machine's memory a run may use when the user sets no limit.
 pub const DEFAULT_BUDGET_FRACTION: f64 = 0.5;
-
-/// Bytes a mesh holds per triangle in memory (three `f64` vertices).
-pub const MESH_BYTES_PER_TRIANGLE: u64 = 72;
 
 /// Bytes of a pointshell point in memory while it is made: position, normal, tree order.
 const POINT_BYTES: f64 = 48.0;
@@ -56,7 +52,7 @@ pub fn surface_voxels(mesh: &Mesh, s: f64) -> f64 {
 
 /// The in-memory voxelizer's expected peak for `mesh` with `params`.
 pub fn voxelize_in_memory(mesh: &Mesh, params: &VoxelizeParams) -> MemoryEstimate {
-    let mesh_bytes = mesh_bytes(mesh);
+    let mesh_bytes = mesh.approx_bytes();
     let surface = surface_voxels(mesh, params.voxel_size);
     let peak = mesh_bytes as f64 + surface * bytes_per_surface_voxel(params.layers);
     MemoryEstimate {
@@ -77,17 +73,9 @@ pub fn pointshell(mesh: &Mesh, params: &VoxelizeParams) -> MemoryEstimate {
     }
 }
 
-/// Bytes `mesh` holds.
-pub fn mesh_bytes(mesh: &Mesh) -> u64 {
-    mesh.triangles.len() as u64 * MESH_BYTES_PER_TRIANGLE
-}
-
+/// `b` bytes as a whole number, `u64::MAX` when beyond it (or not a number).
 fn saturating_bytes(b: f64) -> u64 {
-    if b.is_finite() && b < MAX_COORDINATE {
-        b.min(u64::MAX as f64) as u64
-    } else {
-        u64::MAX
-    }
+    b.min(u64::MAX as f64) as u64
 }
 
 /// The memory of this machine, or of the control group the process runs in when that is

@@ -640,11 +640,12 @@ impl ObjectColumns {
                 // An open object is done in one piece over all its planes: its blocks then
                 // start as wide as the tiles, not one brick plane of columns.
                 let whole = open(w);
-                let group_of = move |b: u32| if whole { planes.start } else { b };
-                let every = planes
-                    .clone()
-                    .filter(move |&b| !whole || b == planes.start)
-                    .map(move |b| (i as u32, b, NONE));
+                let keys = if whole {
+                    planes.start..planes.start + 1
+                } else {
+                    planes.clone()
+                };
+                let every = keys.clone().map(move |b| (i as u32, b, NONE));
                 let reaching = tris_of(i).iter().enumerate().flat_map(move |(k, t)| {
                     let xs = t.map(|p| grid.to_grid_units(p).x);
                     let (lo, hi) = (xs[0].min(xs[1]).min(xs[2]) - 2.0, xs[0].max(xs[1]).max(xs[2]) + 2.0);
@@ -656,12 +657,8 @@ impl ObjectColumns {
                     } else {
                         (0, 0)
                     };
-                    let (b0, b1) = if whole && b0 < b1 {
-                        (planes.start, planes.start + 1)
-                    } else {
-                        (b0, b1)
-                    };
-                    (b0..b1).map(move |b| (i as u32, group_of(b), k as u32))
+                    let reached = if whole && b0 < b1 { keys.clone() } else { b0..b1 };
+                    reached.map(move |b| (i as u32, b, k as u32))
                 });
                 every.chain(reaching)
             })

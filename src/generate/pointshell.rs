@@ -103,26 +103,19 @@ pub fn pointshell(
     let mut runs = Vec::new();
     {
         let (mut p_rest, mut n_rest) = (&mut points[..], &mut normals[..]);
+        let mut first = 0;
         for run in bricks.chunks(BRICKS_PER_RUN) {
             let len: usize = run.iter().map(|b| b.len as usize).sum();
             let (p, pr) = std::mem::take(&mut p_rest).split_at_mut(len);
             let (n, nr) = std::mem::take(&mut n_rest).split_at_mut(len);
             (p_rest, n_rest) = (pr, nr);
-            runs.push((run, p, n));
+            runs.push((run, first, p, n));
+            first += len;
         }
     }
-    let firsts: Vec<usize> = runs
-        .iter()
-        .scan(0, |at, r| {
-            let first = *at;
-            *at += r.1.len();
-            Some(first)
-        })
-        .collect();
     let per_run: Vec<NormalStats> = runs
         .into_par_iter()
-        .zip(firsts)
-        .map(|((run, p_out, n_out), first)| {
+        .map(|(run, first, p_out, n_out)| {
             let mut s = NormalStats::default();
             let mut neighbours = Neighbours::new(voxmap);
             let mut window = Window::new(voxmap);
@@ -208,19 +201,23 @@ fn orient_two_sided(
     origin: DVec3,
     points: &[Vec3],
     normals: &mut [Vec3],
-    mut to_orient: Vec<(usize, u32)>,
+    to_orient: Vec<(usize, u32)>,
 ) {
     use crate::geometry::winding::{winding_number, AreaBound};
-    let object_of = |t: u32| mesh.objects.partition_point(|o| o.triangles.end <= t as usize);
-    to_orient.sort_unstable_by_key(|&(_, t)| object_of(t));
+    // (object, point index), by object.
+    let mut to_orient: Vec<(usize, usize)> = to_orient
+        .into_iter()
+        .map(|(i, t)| (mesh.objects.partition_point(|o| o.triangles.end <= t as usize), i))
+        .collect();
+    to_orient.sort_unstable();
     let step = grid.voxel_size;
-    for group in to_orient.chunk_by(|a, b| object_of(a.1) == object_of(b.1)) {
-        let tris = &mesh.triangles[mesh.objects[object_of(group[0].1)].triangles.clone()];
+    for group in to_orient.chunk_by(|a, b| a.0 == b.0) {
+        let tris = &mesh.triangles[mesh.objects[group[0].0].triangles.clone()];
         let exact = tris.len().saturating_mul(2 * group.len()) <= EXACT_ORIENT_WORK;
         let tree = (!exact).then(|| AreaBound::new(tris));
         let turned: Vec<(usize, Vec3)> = group
             .par_iter()
-            .filter_map(|&(i, _)| {
+            .filter_map(|&(_, i)| {
                 let p = points[i].as_dvec3() + origin;
                 let n = normals[i].as_dvec3();
                 let (ahead, behind) = (p + n * step, p - n * step);
@@ -250,8 +247,8 @@ struct NormalStats {
     fallbacks: u64,
     mismatches: u64,
     two_sided: u64,
-    /// Two-sided points whose triangle normal the winding number orients: (point index,
-    /// triangle).
+    /// Points the winding number orients, two-sided or with a fallen-back normal: (point
+    /// index, triangle).
     to_orient: Vec<(usize, u32)>,
 }
 

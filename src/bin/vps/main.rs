@@ -366,6 +366,7 @@ fn run(cli: Cli) -> Result<()> {
             output,
         } => {
             let f = open(&file)?;
+            interrupt::clean_beside(&output)?;
             let (w, h) = slice(&f, axis, at, index, &output)?;
             outln!("wrote {} ({w}×{h} voxels)", output.display());
             Ok(())
@@ -466,11 +467,10 @@ fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
         };
         Mesh::load_obj_with(path, &options).map_err(|e| match e {
             vps::mesh::MeshError::TooLarge { kept_bytes, limit } => anyhow::anyhow!(
-                "memory limit too small: the mesh needs more than {} in memory ({} kept when it reached the {} this run \
-                 may use for it)",
+                "memory limit too small: the mesh needs more than the {} this run may use for it ({} with the next \
+                 vertex or triangle)",
                 human_bytes(limit),
-                human_bytes(kept_bytes),
-                human_bytes(limit)
+                human_bytes(kept_bytes)
             ),
             e => e.into(),
         })?
@@ -785,14 +785,13 @@ fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output
             }
         }
     }
-    interrupt::clean_beside(output)?;
     vps::render::slice_png(&values, w, h, f.layers(), output)?;
     Ok((w, h))
 }
 
 fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
-    interrupt::clean_dir(out_dir)?;
+    // `voxelize_to_file` below cleans what killed runs left in `out_dir`.
     let mesh = vps::shapes::demo_assembly();
     outln!(
         "demo: built-in assembly of {} objects, {} triangles (sphere, torus, block, hollow shell, open dome made solid by the winding fill)",
