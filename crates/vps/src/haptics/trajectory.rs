@@ -411,7 +411,7 @@ mod tests {
         ));
         assert!(e.to_string().contains("is zero"), "{e}");
         // The fuzz seeds: the crash input and a valid file.
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/trajectory_parse");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/trajectory_parse");
         let crash = read_trajectory(dir.join("crash-huge-quaternion.txt")).unwrap();
         assert_eq!(crash[0].rotation, DQuat::IDENTITY);
         assert_eq!(read_trajectory(dir.join("poses.txt")).unwrap().len(), 4);

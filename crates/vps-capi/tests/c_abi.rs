@@ -1,5 +1,5 @@
 //! The C ABI (`src/ffi.rs`, `include/vps.h`) from C, in other processes: the programs in
-//! `tests/c/` are built with the system C compiler against the `libvps` cdylib that
+//! `tests/c/` are built with the system C compiler against the `libvps_capi` cdylib that
 //! `cargo test` builds, and their answers are compared bit for bit with the in-process query.
 //!
 //! - one C process, many poses: the same bits as [`contact`] in this process;
@@ -17,7 +17,6 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, Output, Stdio};
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use vps::ffi::{self, VpsContactResult};
 use vps::generate::pointshell::pointshell;
 use vps::generate::{voxelize, VoxelizeParams};
 use vps::haptics::{contact, CachedVoxmap, Contact, ContactParams, HapticsError, Pose};
@@ -28,6 +27,7 @@ use vps::shapes::{self, SplitMix};
 use vps::storage::pointshell::{write_pointshell, PointshellFile};
 use vps::storage::{write_voxmap, VoxmapFile};
 use vps::voxmap::Voxmap;
+use vps_capi::{self as ffi, VpsContactResult};
 
 /// Stiffness of every query; not a round number, so the products round.
 const STIFFNESS: f64 = 1234.5;
@@ -38,16 +38,20 @@ const VOXEL: f64 = 0.025;
 // Building the C programs.
 
 struct Programs {
-    /// The directory of the `libvps` they must load.
+    /// The directory of the `libvps_capi` they must load.
     lib: PathBuf,
     contact: PathBuf,
     errors: PathBuf,
 }
 
-/// The directory holding the `libvps` cdylib built with this test: next to the test executable
+/// The directory holding the `libvps_capi` cdylib built with this test: next to the test executable
 /// (`target/<profile>/deps/`), or its parent (`target/<profile>/`).
 fn lib_dir() -> PathBuf {
-    let name = format!("{}vps{}", std::env::consts::DLL_PREFIX, std::env::consts::DLL_SUFFIX);
+    let name = format!(
+        "{}vps_capi{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    );
     let exe = std::env::current_exe().expect("the test executable's path");
     let deps = exe.parent().expect("the test executable's directory").to_path_buf();
     let candidates = [deps.clone(), deps.parent().map(Path::to_path_buf).unwrap_or(deps)];
@@ -78,7 +82,7 @@ fn compile(name: &str, lib: &Path, out_dir: &Path) -> PathBuf {
         .arg(root.join("include"))
         .arg("-L")
         .arg(lib)
-        .args(["-lvps", "-lm"])
+        .args(["-lvps_capi", "-lm"])
         .arg(format!("-Wl,-rpath,{}", lib.display()))
         .arg("-o")
         .arg(&tmp)
@@ -121,7 +125,7 @@ fn programs() -> &'static Programs {
 /// A command running a C program on the library built with this test. The programs carry the
 /// library's directory as their run path, but `cargo test` sets `LD_LIBRARY_PATH`, which wins
 /// over a run path and lists `target/<profile>/` — where `cargo build` leaves its own, maybe
-/// stale, `libvps` — so the directory goes first in `LD_LIBRARY_PATH` too.
+/// stale, `libvps_capi` — so the directory goes first in `LD_LIBRARY_PATH` too.
 fn c_command(program: &Path) -> Command {
     let mut dirs = vec![programs().lib.clone()];
     dirs.extend(
@@ -673,7 +677,9 @@ fn c_readers_keep_their_mapping_across_a_rename() {
         assert!(maps_deleted("self", &files.vxm) && maps_deleted("self", &files.vps));
         // And it runs the library built with this test, not another one on the search path.
         let maps = std::fs::read_to_string(format!("/proc/{pid}/maps")).unwrap();
-        let lib = programs().lib.join(format!("libvps{}", std::env::consts::DLL_SUFFIX));
+        let lib = programs()
+            .lib
+            .join(format!("libvps_capi{}", std::env::consts::DLL_SUFFIX));
         assert!(
             maps.lines().any(|l| l.ends_with(&*lib.to_string_lossy())),
             "{lib:?} not loaded"

@@ -14,7 +14,7 @@ use vps::voxmap::Voxmap;
 fn meshes_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("VPS_MESHES")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/meshes"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/meshes"));
     if dir.is_dir() {
         Some(dir)
     } else {

@@ -90,7 +90,8 @@ pub struct RgbaImage {
 }
 
 impl RgbaImage {
-    /// The colour of pixel (x, y), for tests and tools.
+    /// The colour of pixel (x, y), for the tests.
+    #[cfg(test)]
     pub fn rgb(&self, x: u32, y: u32) -> [u8; 3] {
         let i = ((y as usize * self.width as usize) + x as usize) * 4;
         [self.pixels[i], self.pixels[i + 1], self.pixels[i + 2]]
@@ -394,8 +395,8 @@ fn encode_png(img: &RgbaImage) -> Result<Vec<u8>, RenderError> {
 pub fn slice_png(values: &[i8], width: u32, height: u32, layers: u8, path: &Path) -> Result<(), RenderError> {
     let img = slice_rgba(values, width, height, layers)?;
     let bytes = encode_png(&img)?;
-    crate::storage::write_atomically(path, &bytes).map_err(|e| match e {
-        crate::storage::StorageError::Io { source, .. } => RenderError::Io {
+    vps::storage::write_atomically(path, &bytes).map_err(|e| match e {
+        vps::storage::StorageError::Io { source, .. } => RenderError::Io {
             path: path.to_path_buf(),
             source,
         },
@@ -639,8 +640,8 @@ pub fn plot_series_rgba(title: &str, x_label: &str, series: &[Series<'_>]) -> Rg
 pub fn plot_series_png(title: &str, x_label: &str, series: &[Series<'_>], path: &Path) -> Result<(), RenderError> {
     let img = plot_series_rgba(title, x_label, series);
     let bytes = encode_png(&img)?;
-    crate::storage::write_atomically(path, &bytes).map_err(|e| match e {
-        crate::storage::StorageError::Io { source, .. } => RenderError::Io {
+    vps::storage::write_atomically(path, &bytes).map_err(|e| match e {
+        vps::storage::StorageError::Io { source, .. } => RenderError::Io {
             path: path.to_path_buf(),
             source,
         },

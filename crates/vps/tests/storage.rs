@@ -895,7 +895,7 @@ fn forged_header_base() -> &'static [u8] {
 /// `write_fuzz_seeds`) are valid files after their mode byte.
 #[test]
 fn committed_fuzz_seeds_are_valid_files() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/vxm_open");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/vxm_open");
     let mut n = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
@@ -907,36 +907,4 @@ fn committed_fuzz_seeds_are_valid_files() {
         n += 1;
     }
     assert!(n >= 4, "{n} seeds in {}", dir.display());
-}
-
-/// The issue's file through the command line: `info` used to print `"grid_voxels": 0`; now
-/// `info` and `verify` name the field and exit with an error, without a panic.
-#[test]
-fn the_command_line_refuses_the_issue_header() {
-    let dir = tmp();
-    let (_, good) = written(dir.path(), &ball(3, 20.0));
-    let path = dir.path().join("huge.vxm");
-    std::fs::write(&path, forge(&good, |h, _| h.dims = [1 << 24; 3])).unwrap();
-    for args in [&["info", "--json"][..], &["info"], &["verify"]] {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_vps"))
-            .args(args)
-            .arg(&path)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success(), "{args:?} succeeded");
-        assert!(err.contains("header field dims is invalid"), "{args:?}: {err}");
-        assert!(!err.contains("panicked"), "{args:?}: {err}");
-        assert!(o.stdout.is_empty(), "{args:?}: {}", String::from_utf8_lossy(&o.stdout));
-    }
-    // The largest grid within the limits prints its exact voxel count.
-    std::fs::write(&path, forge(&good, |h, _| h.dims = [1 << 24, 1 << 24, 1 << 15])).unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(["info", "--json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains(&format!("\"grid_voxels\":{}", 1u64 << 63)), "{out}");
 }

@@ -277,3 +277,42 @@ fn demo_runs_without_input() {
     let info = json(&vps(&["info", p(&dir.path().join("demo.vps")), "--json"]));
     assert!(info["points"].as_u64().unwrap() > 1000);
 }
+
+/// A header whose dims pass their checksum but not their limits (`docs/FORMAT.md`): `info`
+/// used to print `"grid_voxels": 0`; now `info` and `verify` name the field and exit with an
+/// error, without a panic. The largest grid within the limits prints its exact voxel count.
+#[test]
+fn info_and_verify_refuse_a_header_beyond_the_limits() {
+    use vps::storage::format::{RawHeader, HEADER_BYTES};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.vxm");
+    let mesh = vps::mesh::Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 5.0, 12, 24)).unwrap();
+    let params = vps::generate::VoxelizeParams {
+        voxel_size: 0.5,
+        layers: 3,
+        ..Default::default()
+    };
+    let (vm, _) = vps::generate::voxelize(&mesh, &params).unwrap();
+    vps::storage::write_voxmap(&path, &vm).unwrap();
+    let good = std::fs::read(&path).unwrap();
+    let forged = |dims: [u32; 3]| {
+        let mut h: RawHeader = bytemuck::pod_read_unaligned(&good[..HEADER_BYTES]);
+        h.dims = dims;
+        h.header_crc = h.compute_crc();
+        let mut bytes = good.clone();
+        bytes[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+        bytes
+    };
+    std::fs::write(&path, forged([1 << 24; 3])).unwrap();
+    for args in [&["info", "--json"][..], &["info"], &["verify"]] {
+        let o = vps(&[args, &[p(&path)]].concat());
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(err.contains("header field dims is invalid"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(o.stdout.is_empty(), "{args:?}: {}", stdout(&o));
+    }
+    std::fs::write(&path, forged([1 << 24, 1 << 24, 1 << 15])).unwrap();
+    let out = stdout(&vps(&["info", "--json", p(&path)]));
+    assert!(out.contains(&format!("\"grid_voxels\":{}", 1u64 << 63)), "{out}");
+}

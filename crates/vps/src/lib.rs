@@ -10,12 +10,10 @@
 //! - [`generate`]: mesh → voxmap;
 //! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
 //! - [`haptics`]: the contact query, force and torque from the two mapped files;
-//! - [`render`]: pictures of slices;
 //! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
 #![cfg(target_endian = "little")]
 
-pub mod ffi;
 pub mod generate;
 pub mod geometry;
 pub mod grid;
@@ -23,7 +21,6 @@ pub mod haptics;
 pub mod mesh;
 pub mod pointshell;
 pub mod reference;
-pub mod render;
 pub mod scene;
 pub mod shapes;
 pub mod storage;

@@ -1,37 +1,13 @@
-//! What the end-to-end tests share: running the `vps` binary, reading its output, writing OBJ
-//! files. Each test binary uses part of it.
+//! What the tests share: meshes built in code, OBJ files written, normals checked. Each test
+//! binary uses part of it; the command line's tests add running the binary
+//! (`crates/vps-cli/tests/common`).
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use glam::DVec3;
 use vps::mesh::{Mesh, Triangle};
 use vps::shapes;
-
-/// Run the `vps` binary built for these tests.
-pub fn vps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vps"))
-        .args(args)
-        .output()
-        .expect("run vps")
-}
-
-/// Standard output as text.
-pub fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-/// Standard error as text.
-pub fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// The JSON object a successful `--json` run printed.
-pub fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "vps failed: {}", stderr(o));
-    serde_json::from_str(stdout(o).trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {}", stdout(o)))
-}
 
 /// The entries of `dir`, sorted.
 pub fn names(dir: &Path) -> Vec<String> {

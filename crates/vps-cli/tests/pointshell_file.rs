@@ -1181,7 +1181,7 @@ fn forged_base() -> &'static [u8] {
 /// `write_fuzz_seeds`) are valid files of both versions after their mode byte.
 #[test]
 fn committed_fuzz_seeds_are_valid_files() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/vps_open");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/vps_open");
     let mut versions = Vec::new();
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();

@@ -12,12 +12,12 @@ use clap::Args;
 use glam::DVec3;
 use serde_json::{json, Value};
 
+use crate::render::{plot_series_png, Series, SERIES_COLOURS};
 use vps::generate::{voxelize_with, Navigation, VoxelizeParams};
 use vps::grid::Grid;
 use vps::haptics::trajectory::{contact_sweep, read_trajectory, sweep, DEFAULT_SWEEP_STEPS};
 use vps::haptics::{contact, contact_brute_force, CachedVoxmap, Contact, ContactParams, Pose};
 use vps::mesh::Mesh;
-use vps::render::{plot_series_png, Series, SERIES_COLOURS};
 use vps::storage::pointshell::{write_pointshell, PointshellFile, PS_MAGIC};
 use vps::storage::write_voxmap;
 

@@ -5,6 +5,7 @@ mod output;
 mod bounded;
 mod haptics;
 mod interrupt;
+mod render;
 mod scene;
 
 use std::io::{BufRead, BufWriter, Write};
@@ -785,7 +786,7 @@ fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output
             }
         }
     }
-    vps::render::slice_png(&values, w, h, f.layers(), output)?;
+    crate::render::slice_png(&values, w, h, f.layers(), output)?;
     Ok((w, h))
 }
 

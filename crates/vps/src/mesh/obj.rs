@@ -530,7 +530,7 @@ mod tests {
 
     #[test]
     fn fuzz_seeds_parse_or_fail_cleanly() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/obj_parse");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/obj_parse");
         let mut kept = 0;
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();

@@ -17,8 +17,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::time::Duration;
 
-use crate::haptics::{contact, CachedVoxmap, ContactParams, HapticsError, Pose};
-use crate::storage::pointshell::PointshellFile;
+use vps::haptics::{contact, CachedVoxmap, ContactParams, HapticsError, Pose};
+use vps::storage::pointshell::PointshellFile;
 
 /// Success.
 pub const VPS_OK: c_int = 0;
@@ -50,7 +50,7 @@ const _: () = {
     assert_send_sync::<VpsPointshell>();
 };
 
-/// `vps_contact_result` in C: the result of a query (see [`crate::haptics::Contact`]).
+/// `vps_contact_result` in C: the result of a query (see [`vps::haptics::Contact`]).
 ///
 /// Vectors are in the voxmap's world frame; torque is about the pose's translation.
 #[repr(C)]
@@ -86,8 +86,8 @@ pub struct VpsContactResult {
     pub reserved: i32,
 }
 
-impl From<&crate::haptics::Contact> for VpsContactResult {
-    fn from(c: &crate::haptics::Contact) -> VpsContactResult {
+impl From<&vps::haptics::Contact> for VpsContactResult {
+    fn from(c: &vps::haptics::Contact) -> VpsContactResult {
         VpsContactResult {
             force: c.force.to_array(),
             torque: c.torque.to_array(),
