@@ -573,7 +573,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         ),
         None => (
             if a.plunge {
-                sweep(voxmap.file(), &shell, a.steps).with_context(|| format!("reading {}", vxm_path.display()))?
+                sweep(&voxmap, &shell, a.steps).with_context(|| format!("reading {}", vxm_path.display()))?
             } else {
                 if let Some(d) = a.depth.filter(|d| !(d.is_finite() && *d >= 0.0)) {
                     bail!("--depth must be a finite number >= 0, got {d}");
@@ -662,8 +662,8 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
         .with_context(|| format!("writing plot {}", plot.display()))?;
     }
 
-    let g = *voxmap.file().grid();
-    let vh = voxmap.file().header();
+    let g = *voxmap.grid();
+    let vh = voxmap.file().context("the voxmap was opened from a file")?.header();
     let ph = shell.header();
     let rss = peak_rss_bytes();
     if a.json {

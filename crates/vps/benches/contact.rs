@@ -43,7 +43,7 @@ fn bench_contact(c: &mut Criterion) {
     write_voxmap(&vxm, &vm).unwrap();
     drop(vm);
     let voxmap = CachedVoxmap::open(&vxm).unwrap();
-    eprintln!("slab voxmap: {} grid voxels", voxmap.file().grid().voxel_count());
+    eprintln!("slab voxmap: {} grid voxels", voxmap.grid().voxel_count());
 
     let mut group = c.benchmark_group("contact");
     group.sample_size(20).measurement_time(Duration::from_secs(3));

@@ -12,7 +12,15 @@
 //! - [`haptics`]: the contact query, force and torque from the two mapped files;
 //! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
+//!
+//! The small API most callers need is re-exported here: load a [`Mesh`], [`voxelize`] it into a
+//! [`Voxmap`], sample its [`pointshell()`], write both ([`write_voxmap`], [`write_pointshell`]),
+//! open them again ([`VoxmapFile`], [`PointshellFile`]), and ask for the [`contact`] force at a
+//! [`Pose`] — over voxmaps and pointshells in memory or mapped from files alike
+//! ([`CachedVoxmap`], [`PointshellData`]). Every error converts into [`Error`].
 #![cfg(target_endian = "little")]
+
+pub mod error;
 
 pub mod generate;
 pub mod geometry;
@@ -26,3 +34,15 @@ pub mod shapes;
 pub mod storage;
 pub mod synth;
 pub mod voxmap;
+
+pub use error::{Error, Result};
+pub use generate::pointshell::pointshell;
+pub use generate::{voxelize, Fill, VoxelizeParams};
+pub use grid::Grid;
+pub use haptics::{contact, CachedVoxmap, Contact, ContactParams, Pose};
+pub use mesh::{LoadOptions, Mesh, Triangle};
+pub use pointshell::{Pointshell, PointshellData};
+pub use scene::Scene;
+pub use storage::pointshell::{write_pointshell, PointshellFile};
+pub use storage::{write_voxmap, VoxmapFile};
+pub use voxmap::Voxmap;

@@ -498,9 +498,9 @@ fn cursor_look_ups_agree_with_the_file() {
     // jumps (as node centres), through a cursor over a cache small enough to be emptied often:
     // every value must equal the file's own.
     let p = fixture();
-    let path = p.voxmap.file().path().to_path_buf();
+    let path = p.voxmap.file().unwrap().path().to_path_buf();
     let small = CachedVoxmap::with_capacity(vps::storage::VoxmapFile::open(&path).unwrap(), 64 * 512);
-    let file = small.file();
+    let file = small.file().unwrap();
     let dims = file.grid().dims;
     let mut rng = shapes::SplitMix(11);
     for cache in [&small, &p.voxmap] {
@@ -530,4 +530,61 @@ fn cursor_look_ups_agree_with_the_file() {
         cur.finish().unwrap();
     }
     assert!(small.stats().entries <= 64 * 16, "{:?}", small.stats());
+}
+
+/// The query reads a voxmap and a pointshell in memory exactly as it reads them mapped from
+/// their files: the same contact, bit for bit, culled and brute force, on random poses.
+#[test]
+fn in_memory_and_mapped_give_the_same_contact() {
+    let (s, ps) = (0.2, 0.08);
+    let static_tris = shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0));
+    let moving_tris = shapes::sphere(DVec3::new(0.3, -0.2, 0.1), 1.0, 24, 48);
+    let mapped = pair(static_tris.clone(), s, moving_tris.clone(), ps);
+    let mesh = Mesh::from_triangles("static", static_tris).unwrap();
+    let (vm, _) = voxelize(
+        &mesh,
+        &VoxelizeParams {
+            voxel_size: s,
+            layers: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let voxmap = CachedVoxmap::in_memory(vm);
+    let moving = Mesh::from_triangles("moving", moving_tris).unwrap();
+    let (mvm, _) = voxelize(
+        &moving,
+        &VoxelizeParams {
+            voxel_size: ps,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (shell, _) = pointshell(&moving, &mvm, LEAF_SIZE).unwrap();
+    let mut rng = shapes::SplitMix(5);
+    let params = ContactParams::default();
+    let mut touching = 0;
+    for _ in 0..60 {
+        let t = DVec3::new(rng.unit() * 4.0 - 2.0, rng.unit() * 4.0 - 2.0, rng.unit() * 2.4 - 1.2);
+        let q = DQuat::from_euler(
+            glam::EulerRot::XYZ,
+            rng.unit() * 6.0,
+            rng.unit() * 6.0,
+            rng.unit() * 6.0,
+        );
+        let pose = Pose {
+            translation: t,
+            rotation: q,
+        };
+        let a = contact(&mapped.voxmap, &mapped.shell, &pose, &params).unwrap();
+        let b = contact(&voxmap, &shell, &pose, &params).unwrap();
+        let c = contact_brute_force(&voxmap, &shell, &pose, &params).unwrap();
+        for (x, y) in [(&a, &b), (&a, &c)] {
+            assert_eq!(x.force, y.force, "{pose:?}");
+            assert_eq!(x.torque, y.torque, "{pose:?}");
+            assert_eq!(x.points_in_contact, y.points_in_contact, "{pose:?}");
+        }
+        touching += (a.points_in_contact > 0) as u32;
+    }
+    assert!(touching >= 10, "only {touching} of 60 poses touch");
 }

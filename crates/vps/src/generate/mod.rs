@@ -70,6 +70,18 @@ pub struct VoxelizeParams {
     pub fill: Fill,
 }
 
+impl VoxelizeParams {
+    /// Voxels of `voxel_size` with `layers` on each side of the surface; the default
+    /// navigation and fill.
+    pub fn new(voxel_size: f64, layers: u8) -> VoxelizeParams {
+        VoxelizeParams {
+            voxel_size,
+            layers,
+            ..Default::default()
+        }
+    }
+}
+
 /// Which voxels are inside (`docs/VOXMAP.md`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Fill {

@@ -1,4 +1,5 @@
-//! A `.vxm` file with a cache of decompressed bricks, for look-ups at haptic rates.
+//! A voxmap, in memory or in a mapped `.vxm` file, with a cache of its bricks for look-ups at
+//! haptic rates: the one way the haptic query reads voxel values.
 //!
 //! [`VoxmapFile::value`] decompresses a stored brick on every call (about 2 µs), which a 1 kHz
 //! query touching thousands of voxels cannot afford. [`CachedVoxmap`] keeps what it has read —
@@ -17,9 +18,9 @@ use std::sync::{Arc, Mutex, RwLock};
 use glam::DVec3;
 use rustc_hash::FxHashMap;
 
-use crate::grid::{BRICK_SHIFT, BRICK_VOXELS};
+use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
 use crate::storage::{BrickData, StorageError, VoxmapFile};
-use crate::voxmap::{outside_value, BrickValues};
+use crate::voxmap::{outside_value, BrickRef, BrickValues, Voxmap};
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -56,9 +57,19 @@ pub struct CacheStats {
 const CURSOR_SLOTS: usize = 1024;
 const _: () = assert!(CURSOR_SLOTS == 8 * 8 * 16);
 
-/// A `.vxm` file and a cache of its decompressed bricks. Safe to share between threads.
+/// Where the bricks come from.
+#[derive(Debug)]
+enum Source {
+    /// A mapped `.vxm` file: bricks are decompressed on first use.
+    File(VoxmapFile),
+    /// A voxmap in memory: bricks are copied on first use, so a cursor holds them alike.
+    Memory(Voxmap),
+}
+
+/// A voxmap, from a mapped `.vxm` file or in memory, and a cache of its bricks. Safe to share
+/// between threads.
 pub struct CachedVoxmap {
-    file: VoxmapFile,
+    source: Source,
     shards: Box<[RwLock<FxHashMap<u64, Slot>>]>,
     shard_capacity: usize,
     misses: AtomicU64,
@@ -91,7 +102,7 @@ impl Table {
 impl std::fmt::Debug for CachedVoxmap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CachedVoxmap")
-            .field("file", &self.file)
+            .field("source", &self.source)
             .field("stats", &self.stats())
             .finish_non_exhaustive()
     }
@@ -116,9 +127,18 @@ impl CachedVoxmap {
 
     /// Wrap an open file, with a cache of about `bytes` of decompressed bricks.
     pub fn with_capacity(file: VoxmapFile, bytes: usize) -> CachedVoxmap {
+        Self::with_source(Source::File(file), bytes)
+    }
+
+    /// Wrap a voxmap in memory, with a cache of [`DEFAULT_CACHE_BYTES`].
+    pub fn in_memory(voxmap: Voxmap) -> CachedVoxmap {
+        Self::with_source(Source::Memory(voxmap), DEFAULT_CACHE_BYTES)
+    }
+
+    fn with_source(source: Source, bytes: usize) -> CachedVoxmap {
         let shards = (0..SHARDS).map(|_| RwLock::new(FxHashMap::default())).collect();
         CachedVoxmap {
-            file,
+            source,
             shards,
             shard_capacity: (bytes / BRICK_VOXELS / SHARDS).max(16),
             misses: AtomicU64::new(0),
@@ -128,9 +148,28 @@ impl CachedVoxmap {
         }
     }
 
-    /// The file underneath.
-    pub fn file(&self) -> &VoxmapFile {
-        &self.file
+    /// The mapped file underneath, if the voxmap came from one.
+    pub fn file(&self) -> Option<&VoxmapFile> {
+        match &self.source {
+            Source::File(f) => Some(f),
+            Source::Memory(_) => None,
+        }
+    }
+
+    /// The voxmap's grid.
+    pub fn grid(&self) -> &Grid {
+        match &self.source {
+            Source::File(f) => f.grid(),
+            Source::Memory(v) => v.grid(),
+        }
+    }
+
+    /// The voxmap's layers on each side of the surface.
+    pub fn layers(&self) -> u8 {
+        match &self.source {
+            Source::File(f) => f.layers(),
+            Source::Memory(v) => v.layers(),
+        }
     }
 
     /// What brick `key` holds, from the cache or else from the file. Keys beyond the grid are
@@ -143,9 +182,15 @@ impl CachedVoxmap {
             return Ok(s.clone());
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
-        let slot = match self.file.brick(key)? {
-            BrickData::Stored(values) => Slot::Stored(Arc::from(values)),
-            BrickData::Tile(v) => Slot::Tile(v),
+        let slot = match &self.source {
+            Source::File(f) => match f.brick(key)? {
+                BrickData::Stored(values) => Slot::Stored(Arc::from(values)),
+                BrickData::Tile(v) => Slot::Tile(v),
+            },
+            Source::Memory(v) => match v.brick(key) {
+                BrickRef::Stored(values) => Slot::Stored(Arc::new(*values)),
+                BrickRef::Tile(t) => Slot::Tile(t),
+            },
         };
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {
@@ -157,6 +202,15 @@ impl CachedVoxmap {
     /// The value of voxel `v`; beyond the grid, the far-outside value.
     pub fn value(&self, v: [u32; 3]) -> Result<i8, StorageError> {
         self.cursor().value([v[0] as i64, v[1] as i64, v[2] as i64])
+    }
+
+    /// Call `f` with the key of every stored brick (not tiles), in key order.
+    pub fn for_each_stored_key(&self, mut f: impl FnMut(u64)) -> Result<(), StorageError> {
+        match &self.source {
+            Source::File(file) => file.index()?.iter().for_each(|e| f(e.key)),
+            Source::Memory(v) => v.bricks().iter().for_each(|b| f(b.key)),
+        }
+        Ok(())
     }
 
     /// A cursor for a run of nearby look-ups from one thread.
@@ -239,10 +293,10 @@ impl std::fmt::Debug for Cursor<'_> {
 
 impl<'a> Cursor<'a> {
     fn new(voxmap: &'a CachedVoxmap) -> Cursor<'a> {
-        let grid = voxmap.file.grid();
+        let grid = voxmap.grid();
         let d = grid.dims;
         let n = grid.brick_dims();
-        let outside = outside_value(voxmap.file.layers());
+        let outside = outside_value(voxmap.layers());
         let table = voxmap.tables.lock().unwrap_or_else(|e| e.into_inner()).pop();
         Cursor {
             voxmap,

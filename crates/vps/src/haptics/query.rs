@@ -17,7 +17,7 @@ use super::cache::{CachedVoxmap, Cursor};
 use super::pose::Pose;
 use super::HapticsError;
 use crate::pointshell::tree::SphereNode;
-use crate::storage::pointshell::PointshellFile;
+use crate::pointshell::PointshellData;
 use crate::storage::StorageError;
 
 /// The exact walk sums the points of each node of at most this many points on one thread.
@@ -148,9 +148,9 @@ struct Frame<'a> {
 }
 
 impl<'a> Frame<'a> {
-    fn new(
+    fn new<S: PointshellData + ?Sized>(
         voxmap: &'a CachedVoxmap,
-        shell: &'a PointshellFile,
+        shell: &'a S,
         pose: &Pose,
         params: &ContactParams,
     ) -> Result<Frame<'a>, HapticsError> {
@@ -165,7 +165,7 @@ impl<'a> Frame<'a> {
             let q = pose.rotation;
             [q.w, q.x, q.y, q.z]
         })?;
-        let grid = voxmap.file().grid();
+        let grid = voxmap.grid();
         let rot = pose.matrix();
         let s = grid.voxel_size;
         Ok(Frame {
@@ -174,14 +174,14 @@ impl<'a> Frame<'a> {
             points: shell.points(),
             normals: shell.normals(),
             rot,
-            lever0: rot * shell.header().origin,
+            lever0: rot * shell.origin(),
             units0: (pose.translation - grid.origin) / s,
             inv_s: 1.0 / s,
             s,
             k: params.stiffness,
             dims: DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64),
-            layers: voxmap.file().layers() as i32,
-            outside: crate::voxmap::outside_value(voxmap.file().layers()),
+            layers: voxmap.layers() as i32,
+            outside: crate::voxmap::outside_value(voxmap.layers()),
         })
     }
 
@@ -487,9 +487,9 @@ impl<'a> Frame<'a> {
 /// Walks the sphere tree and skips every sphere the voxmap proves to be outside. Without a
 /// budget the result is exact and equal, bit for bit, to [`contact_brute_force`]'s, whatever
 /// the number of threads. With a budget, see [`ContactParams::budget`].
-pub fn contact(
+pub fn contact<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
-    shell: &PointshellFile,
+    shell: &S,
     pose: &Pose,
     params: &ContactParams,
 ) -> Result<Contact, HapticsError> {
@@ -513,9 +513,9 @@ pub fn contact(
 
 /// The reference: every point tested, no tree walk (the tree only cuts the points into the
 /// blocks that make the sum deterministic). The budget is ignored.
-pub fn contact_brute_force(
+pub fn contact_brute_force<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
-    shell: &PointshellFile,
+    shell: &S,
     pose: &Pose,
     params: &ContactParams,
 ) -> Result<Contact, HapticsError> {

@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use glam::{DQuat, DVec3};
 
 use super::pose::{Pose, PoseError};
-use crate::storage::pointshell::PointshellFile;
-use crate::storage::{StorageError, VoxmapFile};
+use crate::pointshell::PointshellData;
+use crate::storage::StorageError;
 
 /// Most poses a trajectory may hold: over 16 minutes at 1 kHz (56 MB of poses). Longer runs
 /// replay a trajectory several times instead.
@@ -178,17 +178,17 @@ pub const SWEEP_ANGLE: f64 = std::f64::consts::FRAC_PI_2;
 /// The box the sweep aims at: the world bounds of the voxmap's stored bricks (which hold the
 /// surface and its layers); for a voxmap with no stored brick, the grid's box shrunk by the
 /// padding the generator puts around a mesh (`layers + 2` voxels per side).
-pub fn object_box(voxmap: &VoxmapFile) -> Result<(DVec3, DVec3), StorageError> {
+pub fn object_box(voxmap: &super::CachedVoxmap) -> Result<(DVec3, DVec3), StorageError> {
     let grid = voxmap.grid();
     let brick = grid.voxel_size * crate::grid::BRICK as f64;
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for e in voxmap.index()? {
-        let b = grid.brick_coords(e.key);
+    voxmap.for_each_stored_key(|key| {
+        let b = grid.brick_coords(key);
         let min = grid.origin + DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64) * brick;
         lo = lo.min(min);
         hi = hi.max(min + DVec3::splat(brick));
-    }
+    })?;
     if lo.cmple(hi).all() {
         return Ok((lo, hi));
     }
@@ -203,8 +203,8 @@ pub fn object_box(voxmap: &VoxmapFile) -> Result<(DVec3, DVec3), StorageError> {
 /// The pointshell's bounding sphere in its own frame: the root node's centre (plus the
 /// header's origin, as points are stored relative to it) and radius; the origin and radius 0
 /// when the pointshell is empty.
-pub fn bounding_sphere(shell: &PointshellFile) -> (DVec3, f64) {
-    let origin = shell.header().origin;
+pub fn bounding_sphere<S: PointshellData + ?Sized>(shell: &S) -> (DVec3, f64) {
+    let origin = shell.origin();
     match shell.nodes().first() {
         Some(root) => (origin + root.center().as_dvec3(), root.radius as f64),
         None => (origin, 0.0),
@@ -223,7 +223,11 @@ pub fn bounding_sphere(shell: &PointshellFile) -> (DVec3, f64) {
 /// Meanwhile the pointshell turns at constant speed about the sphere's centre, by
 /// [`SWEEP_ANGLE`] about [`SWEEP_AXIS`] in all. Query `i` of `n` is at fraction `i / (n − 1)`
 /// of the way.
-pub fn sweep(voxmap: &VoxmapFile, shell: &PointshellFile, steps: usize) -> Result<Vec<Pose>, StorageError> {
+pub fn sweep<S: PointshellData + ?Sized>(
+    voxmap: &super::CachedVoxmap,
+    shell: &S,
+    steps: usize,
+) -> Result<Vec<Pose>, StorageError> {
     let (lo, hi) = object_box(voxmap)?;
     let (centre, radius) = bounding_sphere(shell);
     Ok(sweep_between(lo, hi, centre, radius, steps))
@@ -269,14 +273,13 @@ pub fn sweep_between(lo: DVec3, hi: DVec3, sphere_centre: DVec3, radius: f64, st
 ///
 /// So about four fifths of the poses touch, at the depths a haptic device keeps to. An object
 /// that no pose of the line touches gets the plain [`sweep`].
-pub fn contact_sweep(
+pub fn contact_sweep<S: PointshellData + ?Sized>(
     voxmap: &super::CachedVoxmap,
-    shell: &PointshellFile,
+    shell: &S,
     steps: usize,
     depth: Option<f64>,
 ) -> Result<Vec<Pose>, super::HapticsError> {
-    let file = voxmap.file();
-    let (lo, hi) = object_box(file)?;
+    let (lo, hi) = object_box(voxmap)?;
     let (centre, radius) = bounding_sphere(shell);
     // Where the bounding sphere's centre goes: from the start of the plain sweep to the box's
     // centre. Poses turn about that centre: translation = position − R·centre.
@@ -299,7 +302,7 @@ pub fn contact_sweep(
         })
     })?
     else {
-        return Ok(sweep(file, shell, steps)?);
+        return Ok(sweep(voxmap, shell, steps)?);
     };
     let (mut lo, mut hi) = (hit - 1.0 / 64.0, hit);
     for _ in 0..48 {
@@ -312,8 +315,8 @@ pub fn contact_sweep(
     }
     let touch = at(hi);
     let d = (end - start).normalize_or_zero();
-    let grid = file.grid();
-    let depth = depth.unwrap_or(file.layers().max(1) as f64 * grid.voxel_size);
+    let grid = voxmap.grid();
+    let depth = depth.unwrap_or(voxmap.layers().max(1) as f64 * grid.voxel_size);
     let side = d.any_orthonormal_vector();
     let axis = SWEEP_AXIS.normalize();
     let (approach, press) = (steps / 5, steps * 3 / 10);
@@ -507,7 +510,7 @@ mod tests {
     }
 
     #[test]
-    fn sweep_uses_the_files_stored_bricks_and_sphere() {
+    fn sweep_uses_the_stored_bricks_and_sphere() {
         use crate::generate::{voxelize, VoxelizeParams};
         let mesh =
             crate::mesh::Mesh::from_triangles("ball", crate::shapes::sphere(DVec3::new(5.0, 0.0, 0.0), 6.0, 16, 32))
@@ -518,17 +521,11 @@ mod tests {
             ..Default::default()
         };
         let (vm, _) = voxelize(&mesh, &params).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let vxm = dir.path().join("ball.vxm");
-        crate::storage::write_voxmap(&vxm, &vm).unwrap();
         let small = crate::mesh::Mesh::from_triangles("probe", crate::shapes::sphere(DVec3::ZERO, 2.0, 8, 16)).unwrap();
         let (svm, _) = voxelize(&small, &params).unwrap();
-        let (shell, _) = crate::generate::pointshell::pointshell(&small, &svm, 16).unwrap();
-        let vps = dir.path().join("probe.vps");
-        crate::storage::pointshell::write_pointshell(&vps, &shell, 16).unwrap();
-
-        let voxmap = VoxmapFile::open(&vxm).unwrap();
-        let ps = PointshellFile::open(&vps).unwrap();
+        // In memory: the query reads voxmaps and pointshells in memory as it reads files.
+        let (ps, _) = crate::generate::pointshell::pointshell(&small, &svm, 16).unwrap();
+        let voxmap = super::super::CachedVoxmap::in_memory(vm);
         let (lo, hi) = object_box(&voxmap).unwrap();
         // The box holds the ball and is no bigger than the ball plus its layers and a brick.
         let slack = 0.5 * (2.0 + 8.0);
@@ -544,7 +541,7 @@ mod tests {
         let poses = sweep(&voxmap, &ps, 200).unwrap();
         assert_eq!(poses.len(), 200);
         // Some queries miss and some hit, and the last is deep inside.
-        let cached = super::super::CachedVoxmap::new(voxmap);
+        let cached = voxmap;
         let params = super::super::ContactParams::default();
         let hits: Vec<bool> = poses
             .iter()
@@ -569,11 +566,7 @@ mod tests {
         use crate::voxmap::Voxmap;
         let grid = Grid::around(DVec3::ZERO, DVec3::splat(10.0), 1.0, 4).unwrap();
         let vm = Voxmap::from_parts(grid, 2, vec![], vec![]);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("empty.vxm");
-        crate::storage::write_voxmap(&path, &vm).unwrap();
-        let f = VoxmapFile::open(&path).unwrap();
-        let (lo, hi) = object_box(&f).unwrap();
+        let (lo, hi) = object_box(&super::super::CachedVoxmap::in_memory(vm)).unwrap();
         assert_eq!(lo, grid.origin + DVec3::splat(4.0));
         let far = grid.origin + DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64);
         assert_eq!(hi, far - DVec3::splat(4.0));

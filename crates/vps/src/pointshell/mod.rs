@@ -4,3 +4,33 @@ pub mod tree;
 
 pub use shell::{Pointshell, PointshellStats};
 pub use tree::{SphereNode, SphereTree};
+
+use glam::{DVec3, Vec3};
+
+/// What the haptic query reads of a pointshell: the same for one in memory ([`Pointshell`])
+/// and one in a mapped `.vps` file ([`crate::storage::pointshell::PointshellFile`]).
+pub trait PointshellData: Sync {
+    /// The position of the object's frame the points are stored relative to.
+    fn origin(&self) -> DVec3;
+    /// Points relative to [`PointshellData::origin`], in tree order.
+    fn points(&self) -> &[Vec3];
+    /// Unit normals pointing into the object, one per point.
+    fn normals(&self) -> &[Vec3];
+    /// The sphere tree's nodes, root first.
+    fn nodes(&self) -> &[SphereNode];
+}
+
+impl PointshellData for Pointshell {
+    fn origin(&self) -> DVec3 {
+        self.origin
+    }
+    fn points(&self) -> &[Vec3] {
+        &self.points
+    }
+    fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+    fn nodes(&self) -> &[SphereNode] {
+        &self.tree.nodes
+    }
+}

@@ -661,3 +661,18 @@ pub fn write_ply(
     write_atomically(path, &bytes)?;
     Ok(bytes.len() as u64)
 }
+
+impl crate::pointshell::PointshellData for PointshellFile {
+    fn origin(&self) -> glam::DVec3 {
+        self.header().origin
+    }
+    fn points(&self) -> &[Vec3] {
+        PointshellFile::points(self)
+    }
+    fn normals(&self) -> &[Vec3] {
+        PointshellFile::normals(self)
+    }
+    fn nodes(&self) -> &[SphereNode] {
+        PointshellFile::nodes(self)
+    }
+}
