@@ -13,7 +13,8 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use vps::synth::{synth_car, write_obj_file, SynthParams, DEFAULT_SEED};
+use vps::mesh::obj_write::write_obj_file;
+use vps::synth::{synth_car, SynthParams, DEFAULT_SEED};
 
 /// Subcommands of `vps scene`.
 #[derive(Subcommand, Debug)]

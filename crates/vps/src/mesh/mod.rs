@@ -15,6 +15,7 @@ use glam::DVec3;
 
 pub mod obj;
 
+pub mod obj_write;
 pub use obj::ObjError;
 
 /// A triangle, as its three vertices.

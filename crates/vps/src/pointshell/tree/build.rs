@@ -1,0 +1,212 @@
+//! Building the tree: median splits of the points, in parallel above a size, each node
+//! fitted by [`super::fit`].
+
+use super::fit::*;
+use super::*;
+
+/// A point during the build: position and where it came from, kept together so that the median
+/// splits move them as one and every pass over a node reads contiguous memory. The normal stays
+/// in the input, found by `id`: 16 bytes move twice as fast as 28 in the splits (measured), and
+/// the nodes' points stay close to their input order, so looking the normals up reads nearby
+/// memory.
+#[derive(Clone, Copy)]
+pub(super) struct Item {
+    pub(super) p: Vec3,
+    pub(super) id: u32,
+}
+
+/// Builds the sphere tree of a pointshell, with at most `leaf_size` points per leaf
+/// ([`LEAF_SIZE`] is the default).
+///
+/// Returns the tree and the permutation `order`: point `i` of the tree is `points[order[i]]`
+/// (reorder the points, normals and anything else per point with [`reorder`]).
+///
+/// Top-down: a node splits its points at the median along the axis of largest extent of their
+/// bounding box, so the tree is balanced (depth `ceil(log2(n / leaf_size))`) and a node's point
+/// count alone decides its subtree's shape and size. That makes the node layout a function of
+/// the input alone: a node's children sit at the start of its descendants' block, followed by
+/// the left subtree's descendants and then the right one's, and the blocks' sizes are computed,
+/// not claimed from a shared counter, so the two subtrees are built in parallel (`rayon::join`,
+/// for nodes of at least 4096 points) and the result does not depend on the number of threads.
+///
+/// Each node's sphere costs O(its points), so the build is O(n log n): the candidates are the
+/// bounding box's centre, the centroid, and the minimal sphere of a small core set — the extreme
+/// points along x, y and z, grown by the farthest point from the current centre a few times,
+/// Bădoiu–Clarkson style, each step one pass. The candidate whose farthest point is nearest
+/// wins, and the radius is that farthest distance measured in `f32` from the stored `f32`
+/// centre, then raised by a few ulps, so that containment holds when re-checked in `f32`. The
+/// normal cone is the mean normal and the smallest cosine to it, lowered by two ulps.
+///
+/// # Panics
+/// If `points` and `normals` differ in length, `leaf_size` is 0, there are 2³¹ points or more,
+/// or a coordinate is not finite.
+pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree, Vec<u32>) {
+    assert_eq!(points.len(), normals.len(), "one normal per point");
+    assert!(leaf_size > 0, "leaf_size must be positive");
+    // Node indices are u32 and a tree has fewer than 2n nodes.
+    assert!(points.len() < 1 << 31, "too many points for u32 node indices");
+    assert!(
+        points.par_iter().chain(normals).all(|v| v.is_finite()),
+        "points and normals must be finite"
+    );
+    if points.is_empty() {
+        return (SphereTree::default(), Vec::new());
+    }
+    let mut items: Vec<Item> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| Item { p, id: i as u32 })
+        .collect();
+    let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
+    let (root, rest) = nodes.split_first_mut().expect("at least one node");
+    let mut buffer = vec![0.0f32; 7 * items.len()];
+    let cols = Columns::new(&mut buffer, items.len());
+    let shared = Shared {
+        normals,
+        leaf: leaf_size,
+    };
+    build_node(&mut items, cols, &shared, 0, 0, root, rest, 1);
+    let order = items.par_iter().map(|it| it.id).collect();
+    (SphereTree { nodes }, order)
+}
+
+/// Number of leaves of the subtree over `n >= 1` points, following the median split of
+/// [`build_node`] (`n` → `n / 2` and `n - n / 2`). Halving keeps the sizes at one depth within
+/// one of each other, so a depth is a size `a` with a count and `a + 1` with a count, and this
+/// takes O(log n) steps.
+pub(super) fn leaf_count(n: usize, leaf: usize) -> usize {
+    let (mut a, mut count_a, mut count_a1) = (n, 1usize, 0usize);
+    let mut leaves = 0;
+    loop {
+        if a <= leaf {
+            leaves += count_a;
+            count_a = 0;
+        }
+        if a < leaf {
+            leaves += count_a1;
+            count_a1 = 0;
+        }
+        if count_a == 0 && count_a1 == 0 {
+            return leaves;
+        }
+        // a = 2m splits into m, m and a + 1 into m, m + 1; a = 2m + 1 splits into m, m + 1 and
+        // a + 1 into m + 1, m + 1.
+        if a % 2 == 0 {
+            (count_a, count_a1) = (2 * count_a + count_a1, count_a1);
+        } else {
+            (count_a, count_a1) = (count_a, count_a + 2 * count_a1);
+        }
+        a /= 2;
+    }
+}
+
+/// Number of nodes of the subtree over `n` points: a full binary tree, so `2 leaves - 1`.
+pub(super) fn subtree_nodes(n: usize, leaf: usize) -> usize {
+    if n == 0 {
+        0
+    } else {
+        2 * leaf_count(n, leaf) - 1
+    }
+}
+
+/// What every node of one build reads.
+pub(super) struct Shared<'a> {
+    /// The input normals, by `Item::id`.
+    pub(super) normals: &'a [Vec3],
+    /// Largest number of points in a leaf.
+    pub(super) leaf: usize,
+}
+
+/// Builds the subtree over `items` into `node` and its descendants' block `desc`, which starts at
+/// node index `desc_base` and holds exactly `subtree_nodes(items.len()) - 1` nodes.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn build_node(
+    items: &mut [Item],
+    cols: Columns,
+    shared: &Shared,
+    point_start: u32,
+    depth: u32,
+    node: &mut SphereNode,
+    desc: &mut [SphereNode],
+    desc_base: u32,
+) {
+    let leaf = shared.leaf;
+    let mut cols = cols;
+    let fit = fit(items, shared.normals, &mut cols);
+    *node = SphereNode {
+        center: fit.center.to_array(),
+        radius: fit.radius,
+        cone_axis: fit.cone_axis.to_array(),
+        cone_cos: fit.cone_cos,
+        first_child: NO_CHILD,
+        point_start,
+        point_count: items.len() as u32,
+        depth,
+    };
+    if items.len() <= leaf {
+        debug_assert!(desc.is_empty());
+        return;
+    }
+    let mid = items.len() / 2;
+    let axis = fit.split_axis;
+    // Ties broken by the original index: a strict total order, so which points go left is
+    // decided by the input alone. One closure per axis keeps the axis out of the inner loop.
+    match axis {
+        0 => items.select_nth_unstable_by_key(mid, |it| split_key(it.p.x, it.id)),
+        1 => items.select_nth_unstable_by_key(mid, |it| split_key(it.p.y, it.id)),
+        _ => items.select_nth_unstable_by_key(mid, |it| split_key(it.p.z, it.id)),
+    };
+    let parallel = items.len() >= PARALLEL_MIN_POINTS;
+    let (left_items, right_items) = items.split_at_mut(mid);
+    let (left_cols, right_cols) = cols.split_at(mid);
+    let (pair, rest) = desc.split_at_mut(2);
+    let (left_desc, right_desc) = rest.split_at_mut(subtree_nodes(mid, leaf) - 1);
+    debug_assert_eq!(right_desc.len(), subtree_nodes(right_items.len(), leaf) - 1);
+    let [left, right] = pair else {
+        unreachable!("split_at_mut(2)")
+    };
+    node.first_child = desc_base;
+    let left_base = desc_base + 2;
+    let right_base = left_base + left_desc.len() as u32;
+    let right_start = point_start + mid as u32;
+    let go_left = move || {
+        build_node(
+            left_items,
+            left_cols,
+            shared,
+            point_start,
+            depth + 1,
+            left,
+            left_desc,
+            left_base,
+        )
+    };
+    let go_right = move || {
+        build_node(
+            right_items,
+            right_cols,
+            shared,
+            right_start,
+            depth + 1,
+            right,
+            right_desc,
+            right_base,
+        )
+    };
+    if parallel {
+        rayon::join(go_left, go_right);
+    } else {
+        go_left();
+        go_right();
+    }
+}
+
+/// The median split's order as one integer: the coordinate in [`f32::total_cmp`]'s order, then
+/// the original index. `total_cmp` compares the bits as `i32` after flipping the magnitude bits
+/// of negative numbers; flipping the sign bit too turns that into unsigned order.
+#[inline(always)]
+pub(super) fn split_key(x: f32, id: u32) -> u64 {
+    let bits = x.to_bits() as i32;
+    let ordered = (bits ^ (((bits >> 31) as u32) >> 1) as i32) as u32 ^ 0x8000_0000;
+    u64::from(ordered) << 32 | u64::from(id)
+}
