@@ -14,6 +14,7 @@
 pub mod format;
 mod mmap;
 pub mod pointshell;
+pub mod slice;
 pub mod spill;
 pub mod temp;
 
