@@ -22,7 +22,7 @@ use serde_json::json;
 use vps::generate::{budget, voxelize_with, Fill, Navigation, VoxelizeParams, VoxelizeReport};
 use vps::mesh::Mesh;
 use vps::storage::pointshell::{write_ply, write_pointshell, PointshellFile, PS_MAGIC};
-use vps::storage::{write_voxmap, BrickData, VoxmapFile, WriteReport};
+use vps::storage::{write_voxmap, VoxmapFile, WriteReport};
 use vps::voxmap::Voxmap;
 
 #[derive(Parser)]
@@ -737,57 +737,15 @@ fn probe(path: &Path, points: &Path) -> Result<()> {
 
 /// Extract a slice and write its picture; returns its size in voxels.
 fn slice(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>, output: &Path) -> Result<(u32, u32)> {
-    let g = *f.grid();
     let a = axis as usize;
     let k = match (at, index) {
-        (_, Some(i)) => i as i64,
-        (Some(w), None) if w.is_finite() => ((w - g.origin[a]) / g.voxel_size).floor() as i64,
-        (Some(w), None) => bail!("--at must be a finite coordinate, got {w}"),
+        (_, Some(i)) => i,
+        (Some(w), None) => vps::storage::slice::slice_index_at(f.grid(), a, w)?,
         (None, None) => bail!("give --at or --index"),
     };
-    if k < 0 || k >= g.dims[a] as i64 {
-        bail!("slice {k} along {axis:?} is outside the grid (0..{})", g.dims[a]);
-    }
-    // Image axes: z-slices show x across and y up; x-slices y across and z up; y-slices x across, z up.
-    let (u, v) = match axis {
-        Axis::X => (1, 2),
-        Axis::Y => (0, 2),
-        Axis::Z => (0, 1),
-    };
-    let (w, h) = (g.dims[u], g.dims[v]);
-    if w as u64 * h as u64 > 1 << 30 {
-        bail!("slice of {w}×{h} voxels is too large to draw");
-    }
-    let mut values = vec![0i8; w as usize * h as usize];
-    let nb = g.brick_dims();
-    let bk = (k as u32) >> vps::grid::BRICK_SHIFT;
-    let lk = k as u32 & (vps::grid::BRICK - 1);
-    for bu in 0..nb[u] {
-        for bv in 0..nb[v] {
-            let mut b = [0u32; 3];
-            b[a] = bk;
-            b[u] = bu;
-            b[v] = bv;
-            let data = f.brick(g.brick_key(b))?;
-            for lu in 0..vps::grid::BRICK {
-                for lv in 0..vps::grid::BRICK {
-                    let mut l = [0u32; 3];
-                    l[a] = lk;
-                    l[u] = lu;
-                    l[v] = lv;
-                    let val = match &data {
-                        BrickData::Stored(vals) => vals[vps::grid::local_index(l[0], l[1], l[2])],
-                        BrickData::Tile(t) => *t,
-                    };
-                    let (x, y) = (bu * vps::grid::BRICK + lu, bv * vps::grid::BRICK + lv);
-                    let row = h - 1 - y;
-                    values[row as usize * w as usize + x as usize] = val;
-                }
-            }
-        }
-    }
-    crate::render::slice_png(&values, w, h, f.layers(), output)?;
-    Ok((w, h))
+    let s = f.slice(a, k)?;
+    crate::render::slice_png(&s.values, s.width, s.height, f.layers(), output)?;
+    Ok((s.width, s.height))
 }
 
 fn demo(out_dir: &Path, voxel_size: f64) -> Result<()> {

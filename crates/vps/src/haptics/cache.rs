@@ -66,6 +66,15 @@ enum Source {
     Memory(Voxmap),
 }
 
+/// What a [`CachedVoxmap`] reads: a voxmap in memory or a mapped file.
+#[derive(Clone, Copy, Debug)]
+pub enum VoxmapSource<'a> {
+    /// A voxmap in memory.
+    Memory(&'a Voxmap),
+    /// A mapped `.vxm` file.
+    File(&'a VoxmapFile),
+}
+
 /// A voxmap, from a mapped `.vxm` file or in memory, and a cache of its bricks. Safe to share
 /// between threads.
 pub struct CachedVoxmap {
@@ -153,6 +162,14 @@ impl CachedVoxmap {
         match &self.source {
             Source::File(f) => Some(f),
             Source::Memory(_) => None,
+        }
+    }
+
+    /// The voxmap or file underneath.
+    pub fn source(&self) -> VoxmapSource<'_> {
+        match &self.source {
+            Source::File(f) => VoxmapSource::File(f),
+            Source::Memory(v) => VoxmapSource::Memory(v),
         }
     }
 

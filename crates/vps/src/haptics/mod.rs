@@ -16,7 +16,7 @@ mod pose;
 mod query;
 pub mod trajectory;
 
-pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, DEFAULT_CACHE_BYTES};
+pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};
 pub use pose::{Pose, PoseError};
 pub use query::{contact, contact_brute_force, Contact, ContactParams, BLOCK_POINTS};
 

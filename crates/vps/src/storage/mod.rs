@@ -16,6 +16,7 @@ mod header;
 mod mmap;
 pub mod pointshell;
 mod reader;
+pub mod slice;
 pub mod spill;
 pub mod temp;
 mod writer;

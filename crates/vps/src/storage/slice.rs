@@ -1,0 +1,203 @@
+//! One axis-aligned slice of a `.vxm` file as a picture-ordered grid of values: what
+//! `vps slice` draws and the Python package returns as an array.
+
+use super::{BrickData, StorageError, VoxmapFile};
+use crate::grid::{local_index, Grid, BRICK, BRICK_SHIFT};
+use crate::voxmap::{BrickRef, Voxmap};
+
+/// Slices larger than this many voxels are refused.
+pub const MAX_SLICE_VOXELS: u64 = 1 << 30;
+
+/// Errors in choosing or extracting a slice.
+#[derive(Debug, thiserror::Error)]
+pub enum SliceError {
+    /// The axis is not 0, 1 or 2.
+    #[error("axis must be 0 (x), 1 (y) or 2 (z), got {0}")]
+    BadAxis(usize),
+    /// The world coordinate is NaN or infinite.
+    #[error("the slice coordinate must be finite, got {0}")]
+    NotFinite(f64),
+    /// The slice lies outside the grid.
+    #[error("slice {index} along {} is outside the grid (0..{dim})", AXIS_NAMES[*axis])]
+    OutsideGrid {
+        /// Axis normal to the slice.
+        axis: usize,
+        /// The voxel index asked for.
+        index: i64,
+        /// Voxels along that axis.
+        dim: u32,
+    },
+    /// The slice has more than [`MAX_SLICE_VOXELS`] voxels.
+    #[error("slice of {width}×{height} voxels is too large")]
+    TooLarge {
+        /// Voxels across.
+        width: u32,
+        /// Voxels up.
+        height: u32,
+    },
+    /// A brick could not be read.
+    #[error(transparent)]
+    Storage(#[from] StorageError),
+}
+
+/// Names of the axes, for messages.
+pub const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
+
+/// The values of one slice, in picture order: `values[row * width + column]`, row 0 at the
+/// top. A z-slice shows x across and y up; an x-slice y across and z up; a y-slice x across
+/// and z up.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Slice {
+    /// Voxels across.
+    pub width: u32,
+    /// Voxels up.
+    pub height: u32,
+    /// The values, row by row from the top.
+    pub values: Vec<i8>,
+}
+
+/// The in-slice axes (across, up) of a slice normal to `axis`.
+fn picture_axes(axis: usize) -> (usize, usize) {
+    match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
+/// The voxel index along `axis` (0, 1, 2 for x, y, z) of the slice of `grid` through world
+/// coordinate `at`, checked to lie inside the grid.
+pub fn slice_index_at(grid: &Grid, axis: usize, at: f64) -> Result<u32, SliceError> {
+    if axis > 2 {
+        return Err(SliceError::BadAxis(axis));
+    }
+    if !at.is_finite() {
+        return Err(SliceError::NotFinite(at));
+    }
+    // `as` saturates: a far coordinate is reported as outside, not wrapped.
+    let k = ((at - grid.origin[axis]) / grid.voxel_size).floor() as i64;
+    check_index(grid, axis, k)
+}
+
+fn check_index(grid: &Grid, axis: usize, index: i64) -> Result<u32, SliceError> {
+    if axis > 2 {
+        return Err(SliceError::BadAxis(axis));
+    }
+    let dim = grid.dims[axis];
+    if index < 0 || index >= dim as i64 {
+        return Err(SliceError::OutsideGrid { axis, index, dim });
+    }
+    Ok(index as u32)
+}
+
+/// The slice of `grid` normal to `axis` at voxel `index`, reading each brick it crosses
+/// through `brick` (by key).
+fn extract(
+    grid: &Grid,
+    axis: usize,
+    index: u32,
+    mut brick: impl FnMut(u64) -> Result<BrickData, StorageError>,
+) -> Result<Slice, SliceError> {
+    let k = check_index(grid, axis, index as i64)?;
+    let (u, v) = picture_axes(axis);
+    let (width, height) = (grid.dims[u], grid.dims[v]);
+    if width as u64 * height as u64 > MAX_SLICE_VOXELS {
+        return Err(SliceError::TooLarge { width, height });
+    }
+    let mut values = vec![0i8; width as usize * height as usize];
+    let nb = grid.brick_dims();
+    let (bk, lk) = (k >> BRICK_SHIFT, k & (BRICK - 1));
+    for bu in 0..nb[u] {
+        for bv in 0..nb[v] {
+            let mut b = [0u32; 3];
+            b[axis] = bk;
+            b[u] = bu;
+            b[v] = bv;
+            let data = brick(grid.brick_key(b))?;
+            for lu in 0..BRICK {
+                for lv in 0..BRICK {
+                    let mut l = [0u32; 3];
+                    l[axis] = lk;
+                    l[u] = lu;
+                    l[v] = lv;
+                    let val = match &data {
+                        BrickData::Stored(vals) => vals[local_index(l[0], l[1], l[2])],
+                        BrickData::Tile(t) => *t,
+                    };
+                    // Dimensions are multiples of BRICK: every brick is whole.
+                    let (x, y) = (bu * BRICK + lu, bv * BRICK + lv);
+                    let row = height - 1 - y;
+                    values[row as usize * width as usize + x as usize] = val;
+                }
+            }
+        }
+    }
+    Ok(Slice { width, height, values })
+}
+
+impl VoxmapFile {
+    /// The slice normal to `axis` (0, 1, 2 for x, y, z) at voxel `index` along it.
+    pub fn slice(&self, axis: usize, index: u32) -> Result<Slice, SliceError> {
+        extract(self.grid(), axis, index, |key| self.brick(key))
+    }
+}
+
+impl Voxmap {
+    /// The slice normal to `axis` (0, 1, 2 for x, y, z) at voxel `index` along it.
+    pub fn slice(&self, axis: usize, index: u32) -> Result<Slice, SliceError> {
+        extract(self.grid(), axis, index, |key| {
+            Ok(match self.brick(key) {
+                BrickRef::Stored(values) => BrickData::Stored(Box::new(*values)),
+                BrickRef::Tile(t) => BrickData::Tile(t),
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{voxelize, VoxelizeParams};
+    use crate::storage::write_voxmap;
+
+    #[test]
+    fn a_slice_holds_the_values_of_its_voxels_in_picture_order() {
+        let mesh = crate::mesh::Mesh::from_triangles(
+            "cube",
+            crate::shapes::cuboid(glam::DVec3::splat(-2.0), glam::DVec3::splat(2.0)),
+        )
+        .unwrap();
+        let params = VoxelizeParams::default();
+        let (vm, _) = voxelize(&mesh, &params).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cube.vxm");
+        write_voxmap(&path, &vm).unwrap();
+        let f = VoxmapFile::open(&path).unwrap();
+        let g = *f.grid();
+        for axis in 0..3 {
+            let k = slice_index_at(&g, axis, 0.3).unwrap();
+            let s = f.slice(axis, k).unwrap();
+            assert_eq!(s, vm.slice(axis, k).unwrap());
+            let (u, v) = picture_axes(axis);
+            assert_eq!((s.width, s.height), (g.dims[u], g.dims[v]));
+            for y in 0..s.height {
+                for x in 0..s.width {
+                    let mut voxel = [0u32; 3];
+                    voxel[axis] = k;
+                    voxel[u] = x;
+                    voxel[v] = y;
+                    let row = s.height - 1 - y;
+                    assert_eq!(s.values[(row * s.width + x) as usize], vm.value(voxel));
+                }
+            }
+            assert!(s.values.iter().any(|&v| v > 0), "the cube's inside is in the slice");
+        }
+        assert!(matches!(f.slice(3, 0), Err(SliceError::BadAxis(3))));
+        assert!(matches!(slice_index_at(&g, 0, f64::NAN), Err(SliceError::NotFinite(_))));
+        let err = slice_index_at(&g, 2, 1e9).unwrap_err().to_string();
+        assert!(
+            err.starts_with("slice ") && err.contains("along z is outside the grid"),
+            "{err}"
+        );
+    }
+}

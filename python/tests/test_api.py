@@ -1,0 +1,185 @@
+"""The Python package against the Rust command line on generated meshes."""
+
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import vps
+from conftest import box, sphere, write_obj
+
+SIZE = 0.125
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    """A sphere as arrays, as a vps.Mesh and as an OBJ file."""
+    d = tmp_path_factory.mktemp("ball")
+    v, t = sphere(radius=1.0)
+    return v, t, vps.Mesh(v, t), write_obj(d / "ball.obj", v, t)
+
+
+def test_mesh_from_arrays_and_from_file_agree(ball):
+    v, t, mesh, obj = ball
+    loaded = vps.Mesh.load(obj)
+    assert mesh.triangle_count == loaded.triangle_count == len(t)
+    np.testing.assert_array_equal(mesh.triangle_array(), loaded.triangle_array())
+    np.testing.assert_array_equal(mesh.triangle_array()[:3], v[t[0]])
+    lo, hi = mesh.bounds
+    np.testing.assert_allclose(lo, v.min(axis=0))
+    np.testing.assert_allclose(hi, v.max(axis=0))
+    # Other dtypes and lists are converted.
+    assert vps.Mesh(v.tolist(), t.astype(np.uint32)).triangle_count == len(t)
+
+
+def test_voxelize_writes_the_same_file_as_the_command_line(ball, tmp_path, run_vps):
+    _, _, mesh, obj = ball
+    vm = vps.voxelize(mesh, SIZE, layers=5)
+    py_file = tmp_path / "py.vxm"
+    assert vm.write(py_file) == py_file.stat().st_size
+    cli_file = tmp_path / "cli.vxm"
+    run_vps("voxelize", obj, "--voxel-size", SIZE, "--layers", 5, "-o", cli_file)
+    assert py_file.read_bytes() == cli_file.read_bytes()
+    opened = vps.Voxmap.open(cli_file)
+    assert opened.dims == vm.dims and opened.layers == vm.layers == 5
+    assert opened.counts == vm.counts
+    assert vm.report["triangles"] == mesh.triangle_count and not vm.report["leaks"]
+
+
+def test_values_equal_probe(ball, tmp_path, run_vps):
+    _, _, mesh, obj = ball
+    cli_file = tmp_path / "cli.vxm"
+    run_vps("voxelize", obj, "--voxel-size", SIZE, "-o", cli_file)
+    rng = np.random.default_rng(7)
+    points = rng.uniform(-1.6, 1.6, size=(2000, 3))
+    points[:5] = [[0, 0, 0], [1, 0, 0], [0, 0, 1.0], [5, 5, 5], [-30, 0, 0]]
+    pts_file = tmp_path / "points.txt"
+    np.savetxt(pts_file, points, fmt="%.17g")
+    probed = np.array(run_vps("probe", cli_file, "--points", pts_file).stdout.split(), dtype=np.int8)
+    from_file = vps.Voxmap.open(cli_file).values(points)
+    in_memory = vps.voxelize(mesh, SIZE).values(points)
+    assert from_file.dtype == np.int8 and from_file.shape == (len(points),)
+    np.testing.assert_array_equal(from_file, probed)
+    np.testing.assert_array_equal(in_memory, probed)
+    assert probed[0] > 0 and probed[3] < 0  # centre inside, far corner outside
+
+
+def test_slice_holds_the_values_at_voxel_centres(ball):
+    _, _, mesh, _ = ball
+    vm = vps.voxelize(mesh, SIZE)
+    nx, ny, nz = vm.dims
+    ox, oy, oz = vm.origin
+    s = vm.slice("z", at=0.01)
+    assert s.dtype == np.int8 and s.shape == (ny, nx)
+    k = int(np.floor((0.01 - oz) / SIZE))
+    np.testing.assert_array_equal(vm.slice(2, index=k), s)
+    ix, iy = np.meshgrid(np.arange(nx), np.arange(ny))
+    centres = np.stack([ox + (ix + 0.5) * SIZE, oy + (iy + 0.5) * SIZE, np.full(ix.shape, oz + (k + 0.5) * SIZE)], -1)
+    expected = vm.values(centres.reshape(-1, 3)).reshape(ny, nx)[::-1]  # row 0 at the top
+    np.testing.assert_array_equal(s, expected)
+    with pytest.raises(vps.VpsError, match="outside the grid"):
+        vm.slice("x", at=1e6)
+    with pytest.raises(ValueError):
+        vm.slice("w", index=0)
+
+
+def test_pointshell_matches_the_command_line(ball, tmp_path, run_vps):
+    _, _, mesh, obj = ball
+    shell = vps.pointshell(mesh, voxel_size=SIZE)
+    n = len(shell)
+    assert n > 100
+    assert shell.points.shape == (n, 3) and shell.normals.shape == (n, 3)
+    np.testing.assert_allclose(np.linalg.norm(shell.normals, axis=1), 1.0, atol=1e-5)
+    radii = np.linalg.norm(shell.points, axis=1)
+    assert np.all(np.abs(radii - 1.0) < SIZE)  # on the sphere, within a voxel
+    # Inward: the normal points against the radius.
+    assert np.all(np.einsum("ij,ij->i", shell.points, shell.normals) < 0)
+    py_file = tmp_path / "py.vps"
+    shell.write(py_file)
+    cli_file = tmp_path / "cli.vps"
+    run_vps("pointshell", obj, "--voxel-size", SIZE, "-o", cli_file)
+    assert py_file.read_bytes() == cli_file.read_bytes()
+    opened = vps.Pointshell.open(cli_file)
+    np.testing.assert_array_equal(opened.points, shell.points)
+    np.testing.assert_array_equal(opened.normals, shell.normals)
+
+
+def test_contact_of_a_ball_pressed_into_a_box_pushes_it_out(tmp_path, run_vps):
+    bv, bt = box((-2.0, -2.0, -2.0), (2.0, 2.0, 0.0))  # top face at z = 0
+    wall = vps.voxelize(vps.Mesh(bv, bt), SIZE)
+    ball_mesh = vps.Mesh(*sphere(radius=0.5))
+    shell = vps.pointshell(ball_mesh, voxel_size=SIZE)
+    pose = (0.1, -0.2, 0.2, 1.0, 0.0, 0.0, 0.0)  # centre 0.2 above the face: 0.3 pressed in
+    c = vps.contact(wall, shell, pose)
+    force, torque, touching = c
+    assert touching == c.points_in_contact > 0
+    assert force[2] > 0 and abs(force[0]) < 0.2 * force[2] and abs(force[1]) < 0.2 * force[2]
+    assert c.complete and c.max_penetration > 0
+    assert vps.contact(wall, shell, (0.0, 0.0, 3.0)).points_in_contact == 0
+    # The same query from the command line, on the files.
+    vxm, vps_file = tmp_path / "wall.vxm", tmp_path / "ball.vps"
+    wall.write(vxm)
+    shell.write(vps_file)
+    out = run_vps("contact", vxm, vps_file, "--pose", " ".join(map(str, pose)), "--json").stdout
+    cli = json.loads(out)
+    np.testing.assert_array_equal(np.array(force), np.array(cli["force"]))
+    assert cli["points_in_contact"] == c.points_in_contact
+    file_contact = vps.contact(vps.Voxmap.open(vxm), vps.Pointshell.open(vps_file), pose)
+    assert file_contact.force == c.force
+
+
+def test_errors_carry_the_library_messages(tmp_path, run_vps):
+    missing = tmp_path / "missing.vxm"
+    with pytest.raises(vps.StorageError) as e:
+        vps.Voxmap.open(missing)
+    assert isinstance(e.value, vps.VpsError)
+    assert str(e.value) in run_vps("info", missing, check=False).stderr
+    with pytest.raises(vps.MeshError, match="cannot read mesh"):
+        vps.Mesh.load(tmp_path / "missing.obj")
+    mesh = vps.Mesh(*box())
+    with pytest.raises(vps.VpsError, match="^voxel size must be a positive finite number, got -1$"):
+        vps.voxelize(mesh, -1.0)
+    with pytest.raises(vps.GenerateError, match="layers must be at most 126, got 300"):
+        vps.voxelize(mesh, 0.5, layers=300)
+    with pytest.raises(vps.MeshError, match="non-finite"):
+        vps.Mesh([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        vps.Mesh(np.zeros((4, 2)), [[0, 1, 2]])
+    with pytest.raises(ValueError, match="refers to vertex 7"):
+        vps.Mesh(np.zeros((3, 3)), [[0, 1, 7]])
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        vps.voxelize(mesh, 0.5).values(np.zeros(3))
+    with pytest.raises(vps.HapticsError):
+        vps.contact(vps.voxelize(mesh, 0.5), vps.pointshell(mesh, voxel_size=0.5), (0, 0, 0, 0, 0, 0, 0))
+
+
+def test_voxelize_releases_the_gil():
+    mesh = vps.Mesh(*sphere(radius=1.0, rings=48, segments=96))
+    done = threading.Event()
+    counter = [0]
+
+    def spin():
+        while not done.is_set():
+            counter[0] += 1
+
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        # The thread's rate alone, while this one sleeps.
+        c0 = counter[0]
+        time.sleep(0.2)
+        rate = (counter[0] - c0) / 0.2
+        # Its count during voxelize calls only: holding the GIL, a call would let it run for
+        # at most a switch interval (5 ms) around its start.
+        during, elapsed = 0, 0.0
+        while elapsed < 0.5:
+            c0, start = counter[0], time.perf_counter()
+            vps.voxelize(mesh, 0.01)
+            elapsed += time.perf_counter() - start
+            during += counter[0] - c0
+    finally:
+        done.set()
+        t.join()
+    assert during > 0.15 * rate * elapsed, f"counted {during} in {elapsed:.2f} s of voxelize, {rate:.0f}/s alone"
