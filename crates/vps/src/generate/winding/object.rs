@@ -1,0 +1,208 @@
+//! What the fill needs of one object besides its triangles: its boundary edges (welded, with
+//! their net uses), the box of voxels that may be inside, and the boundary part `b` of the
+//! winding number with its Taylor models.
+
+use super::*;
+
+/// An edge by its two welded vertices, in order.
+pub(super) type WeldedEdge = ([i64; 3], [i64; 3]);
+
+/// An edge used by the object's triangles more times one way than the other, in grid units.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BoundaryEdge {
+    pub(super) a: DVec3,
+    pub(super) b: DVec3,
+    /// Net uses `a → b` minus `b → a`.
+    pub(super) m: f64,
+    pub(super) len: f64,
+    pub(super) lo: DVec3,
+    pub(super) hi: DVec3,
+}
+
+/// What the winding fill needs of one object besides its triangles: its boundary edges and
+/// the box of voxels that may be inside, in one grid.
+#[derive(Clone, Debug)]
+pub struct WindingObject {
+    pub(super) boundary: Vec<BoundaryEdge>,
+    /// Bounds `|w|` from the triangles' areas, in grid units: for open objects only.
+    pub(super) area: AreaBound,
+    /// First and one-past-last voxel, per axis, whose centre may be inside: within the
+    /// object's box, or for an open object within a margin around it.
+    pub(super) lo: [i64; 3],
+    pub(super) hi: [i64; 3],
+}
+
+impl WindingObject {
+    /// Prepare object `tris` (world units) for `grid`. Vertices closer than a billionth of the
+    /// object's size count as one, as in [`crate::generate::inside::is_closed`].
+    pub fn new(grid: &Grid, tris: &[Triangle]) -> WindingObject {
+        let (wlo, whi) = crate::mesh::bounds_of(tris);
+        let weld = crate::generate::inside::welder(tris);
+        // One position for each welded vertex, so the boundary closes exactly into chains
+        // (the strips' vertical sides then cancel in the gradient too).
+        let mut at: FxHashMap<[i64; 3], DVec3> = FxHashMap::default();
+        // Net uses of each edge, keyed by its welded ends in order, with their positions.
+        let mut edges: FxHashMap<WeldedEdge, (i64, DVec3, DVec3)> = FxHashMap::default();
+        for t in tris {
+            for k in 0..3 {
+                let (a, b) = (weld(t[k]), weld(t[(k + 1) % 3]));
+                let p = *at.entry(a).or_insert(t[k]);
+                let r = *at.entry(b).or_insert(t[(k + 1) % 3]);
+                if a == b {
+                    continue;
+                }
+                let (key, dir, pa, pb) = if a < b { ((a, b), 1, p, r) } else { ((b, a), -1, r, p) };
+                edges.entry(key).or_insert((0, pa, pb)).0 += dir;
+            }
+        }
+        let mut boundary: Vec<(WeldedEdge, BoundaryEdge)> = edges
+            .into_iter()
+            .filter(|(_, e)| e.0 != 0)
+            .map(|(key, (m, pa, pb))| {
+                let (a, b) = (grid.to_grid_units(pa), grid.to_grid_units(pb));
+                let edge = BoundaryEdge {
+                    a,
+                    b,
+                    m: m as f64,
+                    len: (b - a).length(),
+                    lo: a.min(b),
+                    hi: a.max(b),
+                };
+                (key, edge)
+            })
+            .collect();
+        // Hash order is not fixed: sort, so sums run in one order and runs repeat exactly.
+        boundary.sort_unstable_by_key(|x| x.0);
+        let (mut glo, mut ghi) = (grid.to_grid_units(wlo), grid.to_grid_units(whi));
+        if !boundary.is_empty() {
+            // Beyond its box an open object's winding number can still reach ½ (doubled
+            // triangles over a rim, say), but not farther than `margin`: at distance D from
+            // the box, |w| ≤ Σ area / (4π D²).
+            let area: f64 = tris
+                .iter()
+                .map(|t| (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5)
+                .sum();
+            let s2 = grid.voxel_size * grid.voxel_size;
+            let margin = (area / s2 / (4.0 * std::f64::consts::PI * THRESHOLD)).sqrt();
+            glo -= DVec3::splat(margin);
+            ghi += DVec3::splat(margin);
+        }
+        let mut lo = [0i64; 3];
+        let mut hi = [0i64; 3];
+        for a in 0..3 {
+            // Centres k + 0.5 within [glo, ghi], clipped to the grid.
+            let first = (glo[a] - 0.5).ceil();
+            let last = (ghi[a] - 0.5).floor();
+            let first = if first.is_finite() { first.max(0.0) as i64 } else { 0 };
+            let last = if last.is_finite() {
+                last.min(grid.dims[a] as f64 - 1.0) as i64
+            } else {
+                -1
+            };
+            lo[a] = first;
+            hi[a] = (last + 1).max(first);
+        }
+        let area = if boundary.is_empty() {
+            AreaBound::default()
+        } else {
+            let g: Vec<Triangle> = tris.iter().map(|t| t.map(|p| grid.to_grid_units(p))).collect();
+            AreaBound::new(&g)
+        };
+        WindingObject {
+            boundary: boundary.into_iter().map(|(_, e)| e).collect(),
+            area,
+            lo,
+            hi,
+        }
+    }
+
+    /// Whether the object has boundary edges: holes, cracks, or triangles wound against their
+    /// neighbours. Without any, its winding number is a whole number everywhere.
+    pub fn is_open(&self) -> bool {
+        !self.boundary.is_empty()
+    }
+
+    /// The voxel columns along x whose voxels may be inside.
+    pub fn columns(&self) -> Range<i64> {
+        self.lo[0]..self.hi[0]
+    }
+
+    /// Number of boundary edges.
+    pub fn boundary_edges(&self) -> usize {
+        self.boundary.len()
+    }
+
+    /// The boundary part `b` of the winding number at `p` (grid units), of strips hanging up
+    /// (or `down`).
+    pub(super) fn boundary_part(&self, p: DVec3, down: bool) -> f64 {
+        let strip = if down {
+            strip_solid_angle_down
+        } else {
+            strip_solid_angle
+        };
+        self.boundary.iter().map(|e| e.m * strip(e.a, e.b, p)).sum::<f64>() / FOUR_PI
+    }
+
+    /// `b` at `c` (strips hanging up, or `down`), its gradient there, and a bound on the norm
+    /// of its Hessian within `radius` of `c`; `None` when a boundary edge comes that near.
+    pub(super) fn taylor(&self, c: DVec3, radius: f64, down: bool) -> Option<(f64, DVec3, f64)> {
+        // Strips hanging down use the −z pole: mirror the angle's inputs (see
+        // `strip_solid_angle_down`); the gradient is the same field either way.
+        let pole = if down { -1.0 } else { 1.0 };
+        let (mut b, mut g, mut h) = (0.0, DVec3::ZERO, 0.0);
+        for e in &self.boundary {
+            let (pa, pb) = (e.a - c, e.b - c);
+            let (la, lb) = (pa.length(), pb.length());
+            // A lower bound on the distance from any point of the ball to the edge: from its
+            // ends where they are far along it, else from the edge itself.
+            let along = (pb - pa).dot(-pa) / (e.len * e.len);
+            let dist = if along <= 0.0 {
+                la
+            } else if along >= 1.0 {
+                lb
+            } else {
+                (pa + (pb - pa) * along).length()
+            };
+            let d = dist - radius;
+            if d <= 0.0 {
+                return None;
+            }
+            let dot = pa.dot(pb);
+            // Strip angle and Biot–Savart field, as in `strip_solid_angle` and `segment_field`.
+            let det = (pa.x * pb.y - pa.y * pb.x) * pole;
+            b += e.m * 2.0 * det.atan2(la * lb + dot + (pa.z * lb + pb.z * la) * pole);
+            g += pa.cross(pb) * (e.m * (la + lb) / (la * lb * (la * lb + dot)));
+            h += hessian_bound(e.len, e.m, d);
+        }
+        Some((b / FOUR_PI, g / FOUR_PI, h / FOUR_PI))
+    }
+
+    /// Whether some boundary edge's strip (vertical, from the edge up, or `down`) meets the
+    /// box.
+    pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
+        self.boundary.iter().any(|e| {
+            let beyond = if down { e.hi.z < lo.z } else { e.lo.z > hi.z };
+            if beyond || e.hi.x < lo.x || e.lo.x > hi.x || e.hi.y < lo.y || e.lo.y > hi.y {
+                return false;
+            }
+            // Clip the edge's shadow to the box's x–y rectangle (Liang–Barsky); the strip
+            // meets the box if the edge is no higher (lower) than the box's top (bottom) over
+            // that part.
+            let d = e.b - e.a;
+            let (mut t0, mut t1) = (0.0f64, 1.0f64);
+            for a in 0..2 {
+                if d[a] == 0.0 {
+                    if e.a[a] < lo[a] || e.a[a] > hi[a] {
+                        return false;
+                    }
+                } else {
+                    let (u, v) = ((lo[a] - e.a[a]) / d[a], (hi[a] - e.a[a]) / d[a]);
+                    t0 = t0.max(u.min(v));
+                    t1 = t1.min(u.max(v));
+                }
+            }
+            let (z0, z1) = (e.a.z + d.z * t0, e.a.z + d.z * t1);
+            t0 <= t1 && if down { z0.max(z1) >= lo.z } else { z0.min(z1) <= hi.z }
+        })
+    }
+}
