@@ -1,257 +1,28 @@
-//! `vps contact` and `vps haptics-bench`: the haptic query from the command line.
-//!
-//! Results go to stdout, progress and notes to stderr; every bad input is an error returned to
-//! `main`, which prints it and exits with code 1.
+//! `vps haptics-bench`: a sweep, a trajectory or a plunge of queries, their latency figures and
+//! plot, over given files or a built-in pair built on the spot.
 
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
-
-use anyhow::{bail, Context, Result};
-
-use clap::Args;
-use glam::DVec3;
-use serde_json::{json, Value};
-
-use crate::render::{plot_series_png, Series, SERIES_COLOURS};
-use vps::generate::{voxelize_with, Navigation, VoxelizeParams};
-use vps::grid::Grid;
-use vps::haptics::trajectory::{contact_sweep, read_trajectory, sweep, DEFAULT_SWEEP_STEPS};
-use vps::haptics::{contact, contact_brute_force, CachedVoxmap, Contact, ContactParams, Pose};
-use vps::mesh::Mesh;
-use vps::storage::pointshell::{write_pointshell, PointshellFile, PS_MAGIC};
-use vps::storage::write_voxmap;
-
-/// Arguments of `vps contact`.
-#[derive(Args, Debug)]
-pub struct ContactArgs {
-    /// The voxmap (.vxm) of the static object.
-    pub voxmap: PathBuf,
-    /// The pointshell (.vps) of the moving object.
-    pub pointshell: PathBuf,
-    /// Where the pointshell's frame sits in the voxmap's frame: "tx ty tz qw qx qy qz"
-    /// (spaces or commas; the quaternion is normalised).
-    #[arg(long, allow_hyphen_values = true)]
-    pub pose: String,
-    /// Force per unit of penetration per point in contact.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    pub stiffness: f64,
-    /// Time-critical mode: stop refining the sphere tree after this many microseconds and
-    /// report an error bound.
-    #[arg(long)]
-    pub budget_us: Option<u64>,
-    /// Test every point, without the sphere tree (the reference; the budget is ignored).
-    #[arg(long)]
-    pub brute_force: bool,
-    /// Print one JSON object: the whole result, the files and the parameters.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// Arguments of `vps haptics-bench`.
-#[derive(Args, Debug)]
-pub struct BenchArgs {
-    /// The voxmap (.vxm) of the static object (not with --builtin).
-    #[arg(required_unless_present = "builtin", conflicts_with = "builtin")]
-    pub voxmap: Option<PathBuf>,
-    /// The pointshell (.vps) of the moving object (not with --builtin).
-    #[arg(required_unless_present = "builtin", conflicts_with = "builtin")]
-    pub pointshell: Option<PathBuf>,
-    /// Replay these poses: one "tx ty tz qw qx qy qz" per line, # comments.
-    #[arg(long, conflicts_with = "sweep")]
-    pub trajectory: Option<PathBuf>,
-    /// Replay the built-in sweep into contact (the default without --trajectory).
-    #[arg(long)]
-    pub sweep: bool,
-    /// Poses of the built-in sweep.
-    #[arg(long, default_value_t = DEFAULT_SWEEP_STEPS, conflicts_with = "trajectory")]
-    pub steps: usize,
-    /// How far the built-in sweep presses past the first touch, in world units (default: the
-    /// voxmap's layers × its voxel size).
-    #[arg(long, conflicts_with_all = ["trajectory", "plunge"])]
-    pub depth: Option<f64>,
-    /// Instead of touch, press and slide, plunge the pointshell straight to the centre of the
-    /// object (deep contact: nothing can be culled; the worst case).
-    #[arg(long, conflicts_with = "trajectory")]
-    pub plunge: bool,
-    /// Replay the trajectory this many times (the first pass starts with a cold cache).
-    #[arg(long, default_value_t = 1)]
-    pub repeat: usize,
-    /// Time-critical mode: a budget per query, in microseconds. Without it, every query is exact.
-    #[arg(long)]
-    pub budget_us: Option<u64>,
-    /// Force per unit of penetration per point in contact.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    pub stiffness: f64,
-    /// Also time the brute-force reference (every point, no culling) on the same poses.
-    #[arg(long)]
-    pub brute_force: bool,
-    /// Write a PNG plot of force magnitude and points in contact over the queries.
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Print one JSON object instead of the table.
-    #[arg(long)]
-    pub json: bool,
-    /// Build the files first, in a temporary directory: a big sphere as the static object and
-    /// a moving sphere's pointshell. No input file needed.
-    #[arg(long)]
-    pub builtin: bool,
-    /// With --builtin: about this many pointshell points.
-    #[arg(long, default_value_t = 1e6, requires = "builtin")]
-    pub points: f64,
-    /// With --builtin: at least this many voxels in the static object's grid.
-    #[arg(long, default_value_t = 1e9, requires = "builtin")]
-    pub grid_voxels: f64,
-    /// With --builtin: keep the built files in this directory instead of a temporary one.
-    #[arg(long, requires = "builtin")]
-    pub out_dir: Option<PathBuf>,
-}
-
-/// Most queries one bench may run (poses × repeat): each keeps a few numbers for the figures.
-const MAX_QUERIES: usize = 10_000_000;
-
-fn check_stiffness(k: f64) -> Result<()> {
-    if !(k.is_finite() && k >= 0.0) {
-        bail!("--stiffness must be a finite number >= 0, got {k}");
-    }
-    Ok(())
-}
-
-fn is_pointshell(path: &Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 8];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok()
-        && magic == PS_MAGIC
-}
-
-fn open_voxmap(path: &Path) -> Result<CachedVoxmap> {
-    if is_pointshell(path) {
-        bail!(
-            "{} is a pointshell (.vps), not a voxmap: give the voxmap first, then the pointshell",
-            path.display()
-        );
-    }
-    CachedVoxmap::open(path).with_context(|| format!("cannot open voxmap {}", path.display()))
-}
-
-fn open_pointshell(path: &Path) -> Result<PointshellFile> {
-    PointshellFile::open(path).with_context(|| format!("cannot open pointshell {}", path.display()))
-}
-
-fn params(stiffness: f64, budget_us: Option<u64>) -> Result<ContactParams> {
-    check_stiffness(stiffness)?;
-    Ok(ContactParams {
-        stiffness,
-        budget: budget_us.map(Duration::from_micros),
-    })
-}
-
-fn vec3(v: DVec3) -> String {
-    format!("[{:.6e}, {:.6e}, {:.6e}]", v.x, v.y, v.z)
-}
-
-fn pose_json(p: &Pose) -> Value {
-    let q = p.rotation;
-    json!({"translation": p.translation.to_array(), "rotation_wxyz": [q.w, q.x, q.y, q.z]})
-}
-
-/// `vps contact`: one query, printed.
-pub fn run_contact(a: ContactArgs) -> Result<()> {
-    let pose = Pose::parse(&a.pose).context("bad --pose")?;
-    let params = params(a.stiffness, a.budget_us)?;
-    let voxmap = open_voxmap(&a.voxmap)?;
-    let shell = open_pointshell(&a.pointshell)?;
-    if a.brute_force && a.budget_us.is_some() {
-        errln!("note: --brute-force tests every point; --budget-us is ignored");
-    }
-    let query = if a.brute_force { contact_brute_force } else { contact };
-    let c = query(&voxmap, &shell, &pose, &params).with_context(|| {
-        format!(
-            "contact query of {} on {} failed",
-            a.pointshell.display(),
-            a.voxmap.display()
-        )
-    })?;
-    if a.json {
-        let mut j = serde_json::to_value(c).context("serializing the result")?;
-        let extra = json!({
-            "voxmap": a.voxmap.display().to_string(),
-            "pointshell": a.pointshell.display().to_string(),
-            "pose": pose_json(&pose),
-            "stiffness": params.stiffness,
-            "budget_us": a.budget_us,
-            "method": if a.brute_force { "brute_force" } else { "sphere_tree" },
-            "pointshell_points": shell.points().len(),
-        });
-        if let (Some(m), Value::Object(e)) = (j.as_object_mut(), extra) {
-            m.extend(e);
-        }
-        outln!("{j}");
-        return Ok(());
-    }
-    outln!(
-        "{} at pose {} on {}",
-        a.pointshell.display(),
-        pose.to_text(),
-        a.voxmap.display()
-    );
-    outln!(
-        "  in contact       {} of {} points tested ({} in the pointshell)",
-        c.points_in_contact,
-        c.points_tested,
-        shell.points().len()
-    );
-    outln!("  force            {}  |F| = {:.6e}", vec3(c.force), c.force.length());
-    outln!(
-        "  torque           {}  |T| = {:.6e}  (about the pointshell origin, voxmap frame)",
-        vec3(c.torque),
-        c.torque.length()
-    );
-    outln!("  max penetration  {:.6e}", c.max_penetration);
-    outln!(
-        "  sphere tree      {} nodes tested, {} culled{}",
-        c.nodes_tested,
-        c.nodes_culled,
-        if a.brute_force {
-            " (brute force: no culling)"
-        } else {
-            ""
-        }
-    );
-    outln!("  time             {:.1} µs", c.micros);
-    if !c.complete {
-        outln!(
-            "  budget ran out   {} nodes ({} points) approximated; |ΔF| <= {:.3e}, |ΔT| <= {:.3e}",
-            c.nodes_approximated,
-            c.points_approximated,
-            c.force_error_bound,
-            c.torque_error_bound
-        );
-    }
-    Ok(())
-}
+use super::*;
 
 /// What one query leaves for the figures.
 #[derive(Clone, Copy, Debug)]
-struct Sample {
-    micros: f64,
-    force: DVec3,
-    torque: DVec3,
-    points_in_contact: u64,
-    points_tested: u64,
-    complete: bool,
-    force_error_bound: f64,
+pub(super) struct Sample {
+    pub(super) micros: f64,
+    pub(super) force: DVec3,
+    pub(super) torque: DVec3,
+    pub(super) points_in_contact: u64,
+    pub(super) points_tested: u64,
+    pub(super) complete: bool,
+    pub(super) force_error_bound: f64,
 }
 
 impl Sample {
     /// A tested point is in contact, or (when the budget ran out) spheres standing for their
     /// points give a force.
-    fn in_contact(&self) -> bool {
+    pub(super) fn in_contact(&self) -> bool {
         self.points_in_contact > 0 || self.force != DVec3::ZERO
     }
 
-    fn new(c: &Contact, micros: f64) -> Sample {
+    pub(super) fn new(c: &Contact, micros: f64) -> Sample {
         Sample {
             micros,
             force: c.force,
@@ -266,26 +37,26 @@ impl Sample {
 
 /// Latency and throughput figures of a run of queries.
 #[derive(Clone, Debug, serde::Serialize)]
-struct Figures {
-    queries: usize,
-    first_us: f64,
+pub(super) struct Figures {
+    pub(super) queries: usize,
+    pub(super) first_us: f64,
     /// Latency of the first query in contact: the first to read the object's bricks.
-    first_contact_us: Option<f64>,
-    p50_us: f64,
-    p99_us: f64,
-    max_us: f64,
-    mean_us: f64,
-    points_tested_mean: f64,
-    points_tested_max: u64,
-    points_per_ms: f64,
-    queries_in_contact: usize,
-    incomplete_queries: usize,
-    max_force_error_bound: f64,
-    total_seconds: f64,
+    pub(super) first_contact_us: Option<f64>,
+    pub(super) p50_us: f64,
+    pub(super) p99_us: f64,
+    pub(super) max_us: f64,
+    pub(super) mean_us: f64,
+    pub(super) points_tested_mean: f64,
+    pub(super) points_tested_max: u64,
+    pub(super) points_per_ms: f64,
+    pub(super) queries_in_contact: usize,
+    pub(super) incomplete_queries: usize,
+    pub(super) max_force_error_bound: f64,
+    pub(super) total_seconds: f64,
 }
 
 /// Nearest-rank percentile of sorted values.
-fn percentile(sorted: &[f64], p: f64) -> f64 {
+pub(super) fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
     }
@@ -293,7 +64,7 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[rank.clamp(1, sorted.len()) - 1]
 }
 
-fn figures(samples: &[Sample]) -> Figures {
+pub(super) fn figures(samples: &[Sample]) -> Figures {
     let mut lat: Vec<f64> = samples.iter().map(|s| s.micros).collect();
     lat.sort_by(f64::total_cmp);
     let n = samples.len().max(1) as f64;
@@ -322,7 +93,7 @@ fn figures(samples: &[Sample]) -> Figures {
 }
 
 /// Run every pose `repeat` times with `query`, timing each call.
-fn replay(
+pub(super) fn replay(
     what: &str,
     voxmap: &CachedVoxmap,
     shell: &PointshellFile,
@@ -356,28 +127,28 @@ fn replay(
 }
 
 /// Peak resident set size of this process (Linux `VmHWM`), if known.
-fn peak_rss_bytes() -> Option<u64> {
+pub(super) fn peak_rss_bytes() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
 }
 
-fn mib(bytes: u64) -> f64 {
+pub(super) fn mib(bytes: u64) -> f64 {
     bytes as f64 / (1u64 << 20) as f64
 }
 
 /// What `--builtin` made.
-struct Built {
-    voxmap: PathBuf,
-    pointshell: PathBuf,
-    seconds: f64,
-    info: Value,
+pub(super) struct Built {
+    pub(super) voxmap: PathBuf,
+    pub(super) pointshell: PathBuf,
+    pub(super) seconds: f64,
+    pub(super) info: Value,
 }
 
 /// Rings of a UV sphere of `radius_voxels` whose facets stray at most about 0.02 voxel from
 /// the true sphere (segments are twice the rings).
-fn sphere_rings(radius_voxels: f64) -> u32 {
+pub(super) fn sphere_rings(radius_voxels: f64) -> u32 {
     let sag = (0.02 / radius_voxels.max(1.0)).min(1.0);
     let step = (1.0 - sag).acos();
     ((std::f64::consts::PI / step).ceil() as u32).clamp(16, 1024)
@@ -386,15 +157,15 @@ fn sphere_rings(radius_voxels: f64) -> u32 {
 /// Pointshell points (one per surface voxel) of a voxelized sphere per `area / voxel_size²`:
 /// the SAT surface is thicker than one voxel where it runs diagonally. Measured with this
 /// builder: 1.501 at 20,000 points (radius 32 voxels) and 1.500 at 10⁶ (radius 227 voxels).
-const SPHERE_SURFACE_DENSITY: f64 = 1.50;
+pub(super) const SPHERE_SURFACE_DENSITY: f64 = 1.50;
 
 /// Layers of the built-in voxmaps.
-const BUILTIN_LAYERS: u8 = 5;
+pub(super) const BUILTIN_LAYERS: u8 = 5;
 
 /// Build the `--builtin` files in `dir`: a big sphere of radius 1000 voxelized so that its
 /// grid has at least `grid_voxels` voxels, and the pointshell of a sphere a quarter its radius,
 /// sampled at the voxel size that gives about `points` points.
-fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
+pub(super) fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built> {
     if !(points.is_finite() && (100.0..=1e8).contains(&points)) {
         bail!("--points must be between 100 and 1e8, got {points}");
     }
@@ -828,7 +599,7 @@ pub fn run_bench(a: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_figures(what: &str, f: &Figures) -> Result<()> {
+pub(super) fn print_figures(what: &str, f: &Figures) -> Result<()> {
     outln!(
         "{what}: {} queries in {:.3} s, {} in contact ({:.1}%)",
         f.queries,
