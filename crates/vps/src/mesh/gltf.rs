@@ -32,7 +32,25 @@ use super::{Mesh, MeshError, Triangle};
 /// Read a glTF or GLB file held in memory; `base` is the directory its relative buffer URIs
 /// are resolved against (`None`: such buffers are an error).
 pub(crate) fn read(bytes: &[u8], base: Option<&Path>, input: &Input) -> Result<Mesh, MeshError> {
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| input.error(format!("not valid glTF 2.0: {e}")))?;
+    // gltf 1.4.1 subtracts the 12-byte GLB header from the length the header declares without
+    // checking it (a panic where overflow is checked, found by fuzzing): refuse a shorter one.
+    let declared = bytes
+        .get(8..12)
+        .and_then(|b| <[u8; 4]>::try_from(b).ok())
+        .map(u32::from_le_bytes);
+    if bytes.starts_with(b"glTF") && declared.is_some_and(|n| n < 12) {
+        return Err(input.error(format!(
+            "not valid glTF 2.0: the GLB header declares {} bytes, less than the header's 12",
+            declared.unwrap_or(0)
+        )));
+    }
+    let invalid = |e: gltf::Error| input.error(format!("not valid glTF 2.0: {e}"));
+    let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
+    check_position_indices(raw.document.as_json(), input)?;
+    let gltf = gltf::Gltf {
+        document: gltf::Document::from_json(raw.document.into_json()).map_err(invalid)?,
+        blob: raw.blob,
+    };
     let buffers = load_buffers(&gltf, base, input)?;
     let document = &gltf.document;
     let scenes: Vec<gltf::Scene> = match document.default_scene() {
@@ -71,7 +89,7 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>, input: &Input) -> Result<M
                 );
                 let mut triangles = Vec::new();
                 for primitive in m.primitives() {
-                    let at = format!("mesh {} ('{}') primitive {}", m.index(), name, primitive.index());
+                    let at = format!("object '{name}' (mesh {}), primitive {}", m.index(), primitive.index());
                     read_primitive(&primitive, &buffers, &world, &mut triangles, &mesh, input).map_err(
                         |e| match e {
                             MeshError::Format { message, .. } => input.error(format!("{at}: {message}")),
@@ -87,6 +105,26 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>, input: &Input) -> Result<M
         }
     }
     Ok(mesh)
+}
+
+/// gltf-json 1.4.1's validation reads the accessor a primitive's POSITION names before it
+/// checks that it exists (an index panic, found by fuzzing): check that first.
+fn check_position_indices(root: &gltf::json::Root, input: &Input) -> Result<(), MeshError> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &primitive.attributes {
+                if index.value() >= root.accessors.len() {
+                    return Err(input.error(format!(
+                        "not valid glTF 2.0: mesh {m} primitive {p}: attribute {semantic:?} names accessor {}, but there \
+                         are {}",
+                        index.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A node's local transform in `f64`.

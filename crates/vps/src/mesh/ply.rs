@@ -101,6 +101,14 @@ fn is_integer(t: &ply_rs_bw::ply::ScalarType) -> bool {
 /// Check the header: a vertex element with scalar x, y, z; a face element with an integer
 /// index list. Returns the vertex and face counts.
 fn check_header(elements: &[&ElementDef], input: &Input) -> Result<(usize, usize), MeshError> {
+    // An element without properties takes no bytes: a huge count of them would be read
+    // forever from a binary file.
+    if let Some(e) = elements.iter().find(|e| e.properties.is_empty() && e.count > 0) {
+        return Err(input.error(format!(
+            "element `{}` has {} entries but no properties",
+            e.name, e.count
+        )));
+    }
     let find = |name: &str| elements.iter().find(|e| e.name == name);
     let vertex = find("vertex").ok_or_else(|| input.error("the header declares no `vertex` element"))?;
     for axis in ["x", "y", "z"] {
