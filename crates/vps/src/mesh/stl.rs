@@ -3,7 +3,8 @@
 //! An STL file is one object. Binary STL is an 80-byte header, a little-endian `u32` triangle
 //! count and 50 bytes per triangle (normal, three `f32` corners, two attribute bytes); the file
 //! must be exactly that long. A file of that size is binary even when its header begins with
-//! `solid` (as many exporters write); any other file beginning with `solid` is read as ASCII
+//! `solid` (as many exporters write); any other file beginning with `solid` and without a NUL
+//! byte in its first 84 is read as ASCII
 //! (`solid name`, `facet normal …`, `outer loop`, three `vertex x y z`, `endloop`, `endfacet`,
 //! …, `endsolid`). The object is named after the ASCII `solid` name, or else the file's stem.
 //! Normals and attribute bytes are ignored; corners are widened from `f32` to `f64`.
@@ -66,7 +67,9 @@ pub(crate) fn read<R: Read + Seek>(mut read: R, len: u64, name: &str, input: &In
         input.push(&mut mesh, name, triangles)?;
         return Ok(mesh);
     }
-    if head.starts_with(b"solid") {
+    // A binary header may begin with `solid` too; its padding or triangle count holds NUL
+    // bytes, which ASCII STL never does.
+    if head.starts_with(b"solid") && !head.contains(&0) {
         let solid = solid_name(&mut read).map_err(io)?;
         let name = if solid.is_empty() { name } else { &solid };
         read.seek(SeekFrom::Start(0)).map_err(io)?;
@@ -102,13 +105,9 @@ pub(crate) fn read<R: Read + Seek>(mut read: R, len: u64, name: &str, input: &In
 /// The name on the `solid` line, trimmed (at most the first 4 KiB of the line).
 fn solid_name<R: Read>(read: &mut R) -> std::io::Result<String> {
     let mut line = Vec::new();
-    for b in read.bytes().take(4096) {
-        match b? {
-            b'\n' => break,
-            b => line.push(b),
-        }
-    }
-    let text = String::from_utf8_lossy(&line);
+    read.take(4096).read_to_end(&mut line)?;
+    let end = line.iter().position(|&b| b == b'\n').unwrap_or(line.len());
+    let text = String::from_utf8_lossy(&line[..end]);
     Ok(text.strip_prefix("solid").unwrap_or("").trim().to_string())
 }
 
