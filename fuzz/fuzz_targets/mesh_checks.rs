@@ -14,7 +14,9 @@ pub fn check_mesh(mesh: &Mesh) {
     }
     assert_eq!(next, mesh.triangles.len());
     for t in &mesh.triangles {
-        assert!(t.iter().all(|p| p.is_finite() && p.abs().max_element() <= MAX_COORDINATE));
+        assert!(t
+            .iter()
+            .all(|p| p.is_finite() && p.abs().max_element() <= MAX_COORDINATE));
         assert!(!is_degenerate(t), "{t:?}");
     }
     let _ = mesh.bounds();
