@@ -4,27 +4,14 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vps::mesh::{is_degenerate, Mesh, MeshError, MAX_COORDINATE};
+use vps::mesh::{Mesh, MeshError};
+
+mod mesh_checks;
 
 fuzz_target!(|data: &[u8]| {
     let lines = data.split(|&b| b == b'\n').count() as u64;
     match Mesh::from_obj_bytes(data) {
-        Ok(mesh) => {
-            assert!(!mesh.triangles.is_empty());
-            let mut next = 0;
-            for o in &mesh.objects {
-                assert_eq!(o.triangles.start, next, "{o:?}");
-                assert!(o.triangles.end >= o.triangles.start && !o.name.is_empty());
-                next = o.triangles.end;
-            }
-            assert_eq!(next, mesh.triangles.len());
-            for t in &mesh.triangles {
-                assert!(t.iter().all(|p| p.is_finite() && p.abs().max_element() <= MAX_COORDINATE));
-                assert!(!is_degenerate(t), "{t:?}");
-            }
-            let _ = mesh.bounds();
-            let _ = mesh.approx_bytes();
-        }
+        Ok(mesh) => mesh_checks::check_mesh(&mesh),
         Err(e) => {
             if let MeshError::Parse { line, .. } = &e {
                 assert!(*line >= 1 && *line <= lines, "line {line} of {lines}");

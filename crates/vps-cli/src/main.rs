@@ -67,9 +67,9 @@ enum Axis {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Voxelize an OBJ mesh (.obj or .obj.zst) or a scene of meshes (.toml, docs/SCENE.md) into a .vxm voxmap.
+    /// Voxelize a mesh (.obj, .obj.zst, .stl, .ply, .gltf, .glb) or a scene of meshes (.toml, docs/SCENE.md) into a .vxm voxmap.
     Voxelize {
-        /// The mesh (.obj, .obj.zst) or scene file (.toml).
+        /// The mesh (.obj, .obj.zst, .stl, .ply, .gltf, .glb; other names by content) or scene file (.toml).
         mesh: PathBuf,
         /// Voxel edge length, in the mesh's units.
         #[arg(long)]
@@ -104,7 +104,7 @@ enum Command {
     },
     /// Make the pointshell of a mesh (.vps): one point per surface voxel, inward normals, sphere tree.
     Pointshell {
-        /// The mesh (.obj, .obj.zst) or scene file (.toml).
+        /// The mesh (.obj, .obj.zst, .stl, .ply, .gltf, .glb; other names by content) or scene file (.toml).
         mesh: PathBuf,
         /// Voxel edge length, in the mesh's units.
         #[arg(long)]
@@ -437,7 +437,7 @@ fn human_bytes(b: u64) -> String {
     }
 }
 
-/// An OBJ mesh, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh,
+/// A mesh of any format `Mesh::load` reads, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh,
 /// refused as soon as the triangles kept need more than `limit` bytes.
 fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
     let pb = ProgressBar::new(0);
@@ -459,14 +459,14 @@ fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
             progress: None,
         };
         scene
-            .to_mesh_with(|p| Mesh::load_obj_with(p, &each))
+            .to_mesh_with(|p| Mesh::load_with(p, &each))
             .context("loading the scene")?
     } else {
         let options = vps::mesh::LoadOptions {
             max_mesh_bytes: limit,
             progress: Some(&progress),
         };
-        Mesh::load_obj_with(path, &options).map_err(|e| match e {
+        Mesh::load_with(path, &options).map_err(|e| match e {
             vps::mesh::MeshError::TooLarge { kept_bytes, limit } => anyhow::anyhow!(
                 "memory limit too small: the mesh needs more than the {} this run may use for it ({} with the next \
                  vertex or triangle)",

@@ -316,3 +316,57 @@ fn info_and_verify_refuse_a_header_beyond_the_limits() {
     let out = stdout(&vps(&["info", "--json", p(&path)]));
     assert!(out.contains(&format!("\"grid_voxels\":{}", 1u64 << 63)), "{out}");
 }
+
+#[test]
+fn voxelizes_stl_and_glb_like_obj() {
+    use common::mesh_files::{binary_stl, glb, gltf_parts, to_f32, trs_node, write};
+    let dir = tempfile::tempdir().unwrap();
+    let ball: Vec<_> = shapes::sphere(DVec3::ZERO, 10.0, 16, 32).iter().map(to_f32).collect();
+    let block: Vec<_> = shapes::cuboid(DVec3::new(15.0, -5.0, -5.0), DVec3::new(25.0, 5.0, 5.0))
+        .iter()
+        .map(to_f32)
+        .collect();
+    let all: Vec<_> = ball.iter().chain(&block).copied().collect();
+    let obj = dir.path().join("model.obj");
+    write_obj(&obj, &[("model", all.clone())]);
+    let stl = write(dir.path(), "model.stl", binary_stl(&all, b"solid model"));
+    let node = trs_node("model", [0.0; 3], [0.0, 0.0, 1.0], 0.0, [1.0; 3], vec![]);
+    let (doc, bin) = gltf_parts(&ball, &block, &[node], None);
+    let glb_path = write(dir.path(), "model.glb", glb(&doc, &bin));
+    let run = |mesh: &PathBuf| {
+        let out = dir.path().join("out.vxm");
+        json(&vps(&[
+            "voxelize",
+            p(mesh),
+            "--voxel-size",
+            "0.5",
+            "-o",
+            p(&out),
+            "--json",
+        ]))
+    };
+    let want = run(&obj);
+    assert!(want["surface_voxels"].as_u64().unwrap() > 1000, "{want}");
+    for mesh in [&stl, &glb_path] {
+        let got = run(mesh);
+        for key in ["surface_voxels", "inner_voxels", "bricks_stored"] {
+            assert_eq!(got[key], want[key], "{key} of {}: {got}", mesh.display());
+        }
+    }
+    // A bad file is a clear error naming it.
+    let bad = write(dir.path(), "bad.stl", &std::fs::read(&stl).unwrap()[..200]);
+    let o = vps(&[
+        "voxelize",
+        p(&bad),
+        "--voxel-size",
+        "0.5",
+        "-o",
+        p(&dir.path().join("x.vxm")),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("bad.stl") && stderr(&o).contains("triangles"),
+        "{}",
+        stderr(&o)
+    );
+}

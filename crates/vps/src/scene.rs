@@ -1,11 +1,12 @@
-//! Scene files: several OBJ meshes, each placed by its own transform, voxelized as one mesh.
+//! Scene files: several meshes (OBJ, STL, PLY, glTF/GLB), each placed by its own transform,
+//! voxelized as one mesh.
 //!
 //! A scene is a TOML file (format in `docs/SCENE.md`):
 //!
 //! ```toml
 //! [[mesh]]
-//! path = "bolt.obj"                            # relative to the scene file; .obj or .obj.zst
-//! name = "bolt 1"                              # optional; default: the file name without .obj/.zst
+//! path = "bolt.obj"                            # relative to the scene file; any mesh format
+//! name = "bolt 1"                              # optional; default: the file name without its extension
 //! translation = [10.0, 0.0, 0.0]               # optional; default [0, 0, 0]
 //! rotation = { euler_degrees = [0, 0, 90] }    # optional; or { quaternion = [w, x, y, z] }
 //! scale = 2.0                                  # optional, uniform, > 0; default 1
@@ -135,9 +136,10 @@ fn unknown_field_message(field: &str, expected: &[&str], suggestion: &Option<&'s
 fn mesh_error_message(path: &Path, error: &MeshError) -> String {
     match error {
         // These name the file already.
-        MeshError::Io { .. } | MeshError::Obj { where_: Some(_), .. } | MeshError::Parse { file: Some(_), .. } => {
-            error.to_string()
-        }
+        MeshError::Io { .. }
+        | MeshError::Obj { where_: Some(_), .. }
+        | MeshError::Parse { file: Some(_), .. }
+        | MeshError::Format { path: Some(_), .. } => error.to_string(),
         _ => format!("mesh {}: {error}", path.display()),
     }
 }
@@ -383,7 +385,7 @@ impl Placer {
 /// One `[[mesh]]` entry: a mesh file and where to put it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneEntry {
-    /// The entry's name: given, or the file name without `.zst` and `.obj`. Its objects are
+    /// The entry's name: given, or the file name without `.zst` and its mesh extension. Its objects are
     /// named `"<name>/<object>"` in the scene's mesh.
     pub name: String,
     /// The mesh file, resolved against the scene file's directory.
@@ -534,7 +536,8 @@ fn edit_distance(a: &str, b: &str) -> usize {
     row[b.len()]
 }
 
-/// The default entry name: the file name without a trailing `.zst`, then `.obj`.
+/// The default entry name: the file name without a trailing `.zst`, then a mesh extension
+/// (`.obj`, `.stl`, `.ply`, `.gltf`, `.glb`).
 fn default_name(path: &str) -> Option<String> {
     let file = Path::new(path).file_name()?.to_str()?;
     let strip = |s: &str, suffix: &str| -> Option<usize> {
@@ -545,7 +548,10 @@ fn default_name(path: &str) -> Option<String> {
     if let Some(cut) = strip(stem, ".zst") {
         stem = &stem[..cut];
     }
-    if let Some(cut) = strip(stem, ".obj") {
+    if let Some(cut) = [".obj", ".stl", ".ply", ".gltf", ".glb"]
+        .iter()
+        .find_map(|e| strip(stem, e))
+    {
         stem = &stem[..cut];
     }
     (!stem.is_empty()).then(|| stem.to_string())
@@ -638,11 +644,11 @@ impl Scene {
         })
     }
 
-    /// The scene as one mesh: every entry's mesh loaded with [`Mesh::load_obj`] (each distinct
+    /// The scene as one mesh: every entry's mesh loaded with [`Mesh::load`] (each distinct
     /// path once) and transformed; each object of an entry's mesh becomes an object named
     /// `"<entry name>/<object name>"`, in entry order.
     pub fn to_mesh(&self) -> Result<Mesh, SceneError> {
-        self.to_mesh_with(Mesh::load_obj)
+        self.to_mesh_with(Mesh::load)
     }
 
     /// [`Scene::to_mesh`] with another loader, called once per distinct entry path (paths are

@@ -1,11 +1,13 @@
-//! Triangle meshes: loading OBJ files (every object and group, polygons triangulated) and
-//! building meshes in code.
+//! Triangle meshes: loading OBJ, STL, PLY and glTF/GLB files, and building meshes in code.
 //!
 //! Coordinates are kept in `f64`: CAD and terrain models have coordinates of 10⁵–10⁶ units
 //! with sub-unit voxels, where `f32` would misplace vertices by whole voxels.
 //!
 //! OBJ files are read by our own streaming reader ([`obj`]): line by line, keeping only vertex
 //! positions and triangles, so memory grows with the triangles kept, not with the file's size.
+//! STL ([`stl`]), PLY ([`ply`]) and glTF/GLB ([`gltf`]) are read through the `stl_io`,
+//! `ply-rs-bw` and `gltf` crates. [`Mesh::load`] chooses the reader by the file's extension or,
+//! without a known one, by its content ([`format`]).
 
 use std::io::BufReader;
 use std::ops::Range;
@@ -13,9 +15,14 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
+pub mod format;
+pub mod gltf;
 pub mod obj;
-
 pub mod obj_write;
+pub mod ply;
+pub mod stl;
+
+pub use format::Format;
 pub use obj::ObjError;
 
 /// A triangle, as its three vertices.
@@ -62,6 +69,17 @@ pub enum MeshError {
         where_: Option<PathBuf>,
         /// What is wrong.
         reason: String,
+    },
+    /// An STL, PLY or glTF file cannot be used: not of its format, truncated, inconsistent, or
+    /// holding a vertex that is not finite or too large.
+    #[error("{format} {}: {message}", path.as_ref().map(|p| format!("file {}", p.display())).unwrap_or_else(|| "data".into()))]
+    Format {
+        /// The file, if read from one.
+        path: Option<PathBuf>,
+        /// The format it was read as.
+        format: Format,
+        /// What is wrong, and where in the file.
+        message: String,
     },
     /// A vertex has a NaN or infinite coordinate.
     #[error("vertex {vertex} of object '{object}' has a non-finite coordinate {coords:?}")]
@@ -120,7 +138,7 @@ pub struct Mesh {
     pub degenerate_skipped: usize,
 }
 
-/// How to load an OBJ file: limits and a progress callback. The default has neither.
+/// How to load a mesh file: limits and a progress callback. The default has neither.
 #[derive(Clone, Copy, Default)]
 pub struct LoadOptions<'a> {
     /// Fail with [`MeshError::TooLarge`] as soon as the vertices ([`VERTEX_BYTES`] each),
@@ -129,7 +147,7 @@ pub struct LoadOptions<'a> {
     pub max_mesh_bytes: Option<u64>,
     /// Called with the bytes of input read so far and the total if known (the file's size;
     /// unknown for `.zst`, whose decompressed bytes are counted), at the start, about every
-    /// 64 KiB and at the end.
+    /// 64 KiB and at the end (glTF: at the start and the end only).
     pub progress: Option<&'a dyn Fn(u64, Option<u64>)>,
 }
 
@@ -231,7 +249,7 @@ impl Mesh {
         Ok(())
     }
 
-    fn check_nonempty(self) -> Result<Mesh, MeshError> {
+    pub(crate) fn check_nonempty(self) -> Result<Mesh, MeshError> {
         if self.triangles.is_empty() {
             Err(MeshError::Empty {
                 degenerate: self.degenerate_skipped,

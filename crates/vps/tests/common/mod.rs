@@ -5,6 +5,8 @@
 
 use std::path::Path;
 
+pub mod mesh_files;
+
 use glam::DVec3;
 use vps::mesh::{Mesh, Triangle};
 use vps::shapes;
