@@ -184,10 +184,10 @@ impl PyMesh {
         Ok(PyMesh { mesh: mesh.or_raise()? })
     }
 
-    /// Load a mesh file (OBJ, or OBJ compressed as `.obj.zst`).
+    /// Load a mesh file: OBJ (or `.obj.zst`), STL, PLY, glTF or GLB, by extension or content.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
-        let mesh = py.detach(|| Mesh::load_obj(&path)).or_raise()?;
+        let mesh = py.detach(|| Mesh::load(&path)).or_raise()?;
         Ok(PyMesh { mesh })
     }
 
