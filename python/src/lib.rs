@@ -242,10 +242,7 @@ struct PyVoxmap {
 
 impl PyVoxmap {
     fn grid(&self) -> &vps::grid::Grid {
-        match self.data.source() {
-            VoxmapSource::Memory(v) => v.grid(),
-            VoxmapSource::File(f) => f.grid(),
-        }
+        self.data.grid()
     }
 
     /// The voxmap in memory, read from its file if it is one.
@@ -277,12 +274,9 @@ impl PyVoxmap {
         points: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray1<i8>>> {
         let p = rows("points", &points, 3)?;
-        let values = py.detach(|| -> Result<Vec<i8>, StorageError> {
-            let at = |r: numpy::ndarray::ArrayView1<'_, f64>| DVec3::new(r[0], r[1], r[2]);
-            match self.data.source() {
-                VoxmapSource::Memory(v) => Ok(p.rows().into_iter().map(|r| v.value_at(at(r))).collect()),
-                VoxmapSource::File(f) => p.rows().into_iter().map(|r| f.value_at(at(r))).collect(),
-            }
+        let values = py.detach(|| {
+            let points = p.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2]));
+            self.data.values_at(points)
         });
         Ok(values.or_raise()?.into_pyarray(py))
     }
@@ -347,10 +341,7 @@ impl PyVoxmap {
     /// Layers on each side of the surface.
     #[getter]
     fn layers(&self) -> u8 {
-        match self.data.source() {
-            VoxmapSource::Memory(v) => v.layers(),
-            VoxmapSource::File(f) => f.layers(),
-        }
+        self.data.layers()
     }
 
     /// The `.vxm` file this voxmap was opened from, or `None` for one in memory.

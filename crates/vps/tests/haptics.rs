@@ -587,4 +587,23 @@ fn in_memory_and_mapped_give_the_same_contact() {
         touching += (a.points_in_contact > 0) as u32;
     }
     assert!(touching >= 10, "only {touching} of 60 poses touch");
+    // Point look-ups read both alike too, and as the voxmap itself answers.
+    let points: Vec<DVec3> = (0..2000)
+        .map(|_| {
+            DVec3::new(
+                rng.unit() * 24.0 - 12.0,
+                rng.unit() * 24.0 - 12.0,
+                rng.unit() * 8.0 - 5.0,
+            )
+        })
+        .chain([DVec3::NAN, DVec3::splat(1e9)])
+        .collect();
+    let memory = voxmap.values_at(points.iter().copied()).unwrap();
+    assert_eq!(memory, mapped.voxmap.values_at(points.iter().copied()).unwrap());
+    let vps::haptics::VoxmapSource::Memory(vm) = voxmap.source() else {
+        panic!("made in memory")
+    };
+    let direct: Vec<i8> = points.iter().map(|&p| vm.value_at(p)).collect();
+    assert_eq!(memory, direct);
+    assert!(memory.iter().any(|&v| v > 0) && memory.contains(&0));
 }

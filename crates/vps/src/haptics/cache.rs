@@ -230,6 +230,21 @@ impl CachedVoxmap {
         Ok(())
     }
 
+    /// The values of the voxels holding world points `points`, through one cursor; beyond the
+    /// grid (or not finite), the far-outside value.
+    pub fn values_at(&self, points: impl IntoIterator<Item = DVec3>) -> Result<Vec<i8>, StorageError> {
+        let grid = *self.grid();
+        let outside = outside_value(self.layers());
+        let mut cur = self.cursor();
+        points
+            .into_iter()
+            .map(|p| match grid.voxel_of(p) {
+                Some(v) => cur.value(v.map(i64::from)),
+                None => Ok(outside),
+            })
+            .collect()
+    }
+
     /// A cursor for a run of nearby look-ups from one thread.
     pub fn cursor(&self) -> Cursor<'_> {
         Cursor::new(self)
