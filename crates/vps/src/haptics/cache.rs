@@ -19,8 +19,8 @@ use glam::DVec3;
 use rustc_hash::FxHashMap;
 
 use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
-use crate::storage::{BrickData, StorageError, VoxmapFile};
-use crate::voxmap::{outside_value, BrickRef, BrickValues, Voxmap};
+use crate::storage::{StorageError, VoxmapFile};
+use crate::voxmap::{outside_value, BrickSlot, BrickValues, Voxmap};
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -28,14 +28,8 @@ const SHARDS: usize = 64;
 /// Default cache size: 256 MiB of decompressed bricks (half a million bricks).
 pub const DEFAULT_CACHE_BYTES: usize = 256 << 20;
 
-/// What the cache holds for one brick key.
-#[derive(Clone, Debug)]
-pub enum Slot {
-    /// A uniform tile (deep inside or far outside): one value.
-    Tile(i8),
-    /// A stored brick, decompressed.
-    Stored(Arc<BrickValues>),
-}
+/// What the cache holds for one brick key: a tile, or a stored brick shared between cursors.
+pub type Slot = BrickSlot<Arc<BrickValues>>;
 
 /// Cache counters, for benchmarks and tuning.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -200,14 +194,8 @@ impl CachedVoxmap {
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
-            Source::File(f) => match f.brick(key)? {
-                BrickData::Stored(values) => Slot::Stored(Arc::from(values)),
-                BrickData::Tile(v) => Slot::Tile(v),
-            },
-            Source::Memory(v) => match v.brick(key) {
-                BrickRef::Stored(values) => Slot::Stored(Arc::new(*values)),
-                BrickRef::Tile(t) => Slot::Tile(t),
-            },
+            Source::File(f) => f.brick(key)?.map(Arc::from),
+            Source::Memory(v) => v.brick(key).map(|values| Arc::new(*values)),
         };
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {
@@ -378,14 +366,9 @@ impl<'a> Cursor<'a> {
         let Some(table) = &self.table else {
             return self.outside;
         };
-        match &table.slots[self.last_at] {
-            Slot::Tile(t) => *t,
-            Slot::Stored(values) => {
-                let m = (1u32 << BRICK_SHIFT) - 1;
-                let local = (v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT));
-                values[local as usize]
-            }
-        }
+        let m = (1u32 << BRICK_SHIFT) - 1;
+        let local = (v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT));
+        table.slots[self.last_at].value(local as usize)
     }
 
     /// Make brick `b` the current one, from the table or the shared cache.

@@ -30,7 +30,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
-use crate::voxmap::{inside_value, outside_value, Brick, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS};
+use crate::voxmap::{
+    inside_value, outside_value, Brick, BrickSlot, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS,
+};
 use format::{
     align8, decode_brick, encode_brick, new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
     HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,

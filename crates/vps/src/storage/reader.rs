@@ -23,14 +23,8 @@ pub struct Header {
     pub file_bytes: u64,
 }
 
-/// One brick read from a file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum BrickData {
-    /// A stored brick, decompressed.
-    Stored(Box<BrickValues>),
-    /// A uniform tile: inside or far outside.
-    Tile(i8),
-}
+/// One brick read from a file: a stored brick decompressed, or a uniform tile.
+pub type BrickData = BrickSlot<Box<BrickValues>>;
 
 /// What [`VoxmapFile::verify`] checked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -295,15 +289,7 @@ impl VoxmapFile {
             return Ok(outside_value(self.header.layers));
         }
         let (b, local) = split_voxel(v);
-        let key = grid.brick_key(b);
-        let (index, runs) = self.tables()?;
-        match index.binary_search_by_key(&key, |e| e.key) {
-            Ok(i) => {
-                let values = self.read_entry(i, &index[i])?;
-                Ok(values.get(local).copied().unwrap_or(0))
-            }
-            Err(_) => Ok(self.tile_value(runs, key)),
-        }
+        Ok(self.brick(grid.brick_key(b))?.value(local))
     }
 
     /// The value of the voxel containing world point `p`; beyond the grid, the far outside

@@ -1,9 +1,11 @@
 //! One axis-aligned slice of a `.vxm` file as a picture-ordered grid of values: what
 //! `vps slice` draws and the Python package returns as an array.
 
-use super::{BrickData, StorageError, VoxmapFile};
+use std::ops::Deref;
+
+use super::{StorageError, VoxmapFile};
 use crate::grid::{local_index, Grid, BRICK, BRICK_SHIFT};
-use crate::voxmap::{BrickRef, Voxmap};
+use crate::voxmap::{BrickSlot, BrickValues, Voxmap};
 
 /// Slices larger than this many voxels are refused.
 pub const MAX_SLICE_VOXELS: u64 = 1 << 30;
@@ -92,11 +94,11 @@ fn check_index(grid: &Grid, axis: usize, index: i64) -> Result<u32, SliceError> 
 
 /// The slice of `grid` normal to `axis` at voxel `index`, reading each brick it crosses
 /// through `brick` (by key).
-fn extract(
+fn extract<P: Deref<Target = BrickValues>>(
     grid: &Grid,
     axis: usize,
     index: u32,
-    mut brick: impl FnMut(u64) -> Result<BrickData, StorageError>,
+    mut brick: impl FnMut(u64) -> Result<BrickSlot<P>, StorageError>,
 ) -> Result<Slice, SliceError> {
     let k = check_index(grid, axis, index as i64)?;
     let (u, v) = picture_axes(axis);
@@ -120,10 +122,7 @@ fn extract(
                     l[axis] = lk;
                     l[u] = lu;
                     l[v] = lv;
-                    let val = match &data {
-                        BrickData::Stored(vals) => vals[local_index(l[0], l[1], l[2])],
-                        BrickData::Tile(t) => *t,
-                    };
+                    let val = data.value(local_index(l[0], l[1], l[2]));
                     // Dimensions are multiples of BRICK: every brick is whole.
                     let (x, y) = (bu * BRICK + lu, bv * BRICK + lv);
                     let row = height - 1 - y;
@@ -145,12 +144,7 @@ impl VoxmapFile {
 impl Voxmap {
     /// The slice normal to `axis` (0, 1, 2 for x, y, z) at voxel `index` along it.
     pub fn slice(&self, axis: usize, index: u32) -> Result<Slice, SliceError> {
-        extract(self.grid(), axis, index, |key| {
-            Ok(match self.brick(key) {
-                BrickRef::Stored(values) => BrickData::Stored(Box::new(*values)),
-                BrickRef::Tile(t) => BrickData::Tile(t),
-            })
-        })
+        extract(self.grid(), axis, index, |key| Ok(self.brick(key)))
     }
 }
 

@@ -37,13 +37,37 @@ pub struct Brick {
     pub values: Box<BrickValues>,
 }
 
-/// What one brick position holds.
+/// What one brick position holds: a stored brick, through whatever owns or borrows its values
+/// (`&BrickValues` in memory, a `Box` read from a file, an `Arc` in a cache), or a uniform tile.
+/// One enum for all three, so a look-up is written once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BrickRef<'a> {
+pub enum BrickSlot<P> {
     /// A stored brick.
-    Stored(&'a BrickValues),
+    Stored(P),
     /// A uniform tile: every voxel has this value.
     Tile(i8),
+}
+
+/// A brick borrowed from a [`Voxmap`] in memory.
+pub type BrickRef<'a> = BrickSlot<&'a BrickValues>;
+
+impl<P: std::ops::Deref<Target = BrickValues>> BrickSlot<P> {
+    /// The value of the voxel at local index `local` (see [`crate::grid::local_index`]).
+    #[inline]
+    pub fn value(&self, local: usize) -> i8 {
+        match self {
+            BrickSlot::Stored(values) => values[local],
+            BrickSlot::Tile(t) => *t,
+        }
+    }
+
+    /// The same brick with its values owned another way (boxed, shared).
+    pub fn map<Q>(self, f: impl FnOnce(P) -> Q) -> BrickSlot<Q> {
+        match self {
+            BrickSlot::Stored(values) => BrickSlot::Stored(f(values)),
+            BrickSlot::Tile(t) => BrickSlot::Tile(t),
+        }
+    }
 }
 
 /// Voxel counts of a voxmap.
@@ -152,10 +176,7 @@ impl Voxmap {
             return outside_value(self.layers);
         }
         let (b, local) = split_voxel(v);
-        match self.brick(self.grid.brick_key(b)) {
-            BrickRef::Stored(values) => values[local],
-            BrickRef::Tile(t) => t,
-        }
+        self.brick(self.grid.brick_key(b)).value(local)
     }
 
     /// The value of the voxel containing world point `p`; beyond the grid, the far outside value.
