@@ -6,6 +6,7 @@
 use std::path::Path;
 
 pub mod mesh_files;
+pub mod pointshell_bytes;
 
 use glam::DVec3;
 use vps::mesh::{Mesh, Triangle};
