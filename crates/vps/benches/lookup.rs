@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::DVec3;
-use vps::grid::{local_index, Grid, BRICK_VOXELS};
+use vps::grid::{Grid, BRICK_VOXELS};
 use vps::storage::{write_voxmap, BrickData, VoxmapFile};
-use vps::voxmap::{inside_value, outside_value, Brick, KeyRange, Voxmap};
+use vps::voxmap::Voxmap;
 
 /// A bumpy ball and a slab, as layered values: stored bricks near the surface, inside runs
 /// for bricks wholly deep inside, nothing for bricks far outside.
@@ -22,43 +22,7 @@ fn bumpy(layers: u8, radius: f64) -> Voxmap {
         let slab = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
         ball.min(slab)
     };
-    let deep = inside_value(layers);
-    let far = outside_value(layers);
-    let n = grid.brick_dims();
-    let mut bricks = Vec::new();
-    let mut inside: Vec<KeyRange> = Vec::new();
-    for bx in 0..n[0] {
-        for by in 0..n[1] {
-            for bz in 0..n[2] {
-                let key = grid.brick_key([bx, by, bz]);
-                let mut values = Box::new([0i8; BRICK_VOXELS]);
-                for z in 0..8 {
-                    for y in 0..8 {
-                        for x in 0..8 {
-                            let c = grid.voxel_center([bx * 8 + x, by * 8 + y, bz * 8 + z]);
-                            let layer = (-sdf(c)).round().clamp(far as f64, deep as f64);
-                            values[local_index(x, y, z)] = layer as i8;
-                        }
-                    }
-                }
-                if values.iter().all(|&v| v == far) {
-                    continue;
-                }
-                if values.iter().all(|&v| v == deep) {
-                    match inside.last_mut() {
-                        Some(r) if r.end == key => r.end += 1,
-                        _ => inside.push(KeyRange {
-                            start: key,
-                            end: key + 1,
-                        }),
-                    }
-                    continue;
-                }
-                bricks.push(Brick { key, values });
-            }
-        }
-    }
-    Voxmap::from_parts(grid, layers, bricks, inside)
+    Voxmap::from_signed_distance(grid, layers, sdf)
 }
 
 /// A small xorshift, so the benchmark needs no extra dependency and is repeatable.

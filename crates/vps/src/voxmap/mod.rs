@@ -133,6 +133,40 @@ impl Voxmap {
         }
     }
 
+    /// The voxmap of a signed distance field (world units, negative inside; its layers are then
+    /// one per unit): each voxel holds `-distance(centre)` rounded and clamped to the layers, so the surface is 0, inside positive. Bricks all far outside are dropped and
+    /// bricks all deep inside become inside runs, as generation stores them.
+    ///
+    /// Evaluates every voxel of the grid: for tests, benches and small synthetic voxmaps.
+    pub fn from_signed_distance(grid: Grid, layers: u8, distance: impl Fn(glam::DVec3) -> f64) -> Voxmap {
+        let (deep, far) = (inside_value(layers), outside_value(layers));
+        let n = grid.brick_dims();
+        let (mut bricks, mut inside) = (Vec::new(), Vec::<KeyRange>::new());
+        for b in (0..n[0]).flat_map(|x| (0..n[1]).flat_map(move |y| (0..n[2]).map(move |z| [x, y, z]))) {
+            let key = grid.brick_key(b);
+            let values: Box<BrickValues> = Box::new(std::array::from_fn(|i| {
+                let l = [i as u32 & 7, (i as u32 >> 3) & 7, i as u32 >> 6];
+                let c = grid.voxel_center([b[0] * 8 + l[0], b[1] * 8 + l[1], b[2] * 8 + l[2]]);
+                (-distance(c)).round().clamp(far as f64, deep as f64) as i8
+            }));
+            if values.iter().all(|&v| v == far) {
+                continue;
+            }
+            if values.iter().all(|&v| v == deep) {
+                match inside.last_mut() {
+                    Some(r) if r.end == key => r.end += 1,
+                    _ => inside.push(KeyRange {
+                        start: key,
+                        end: key + 1,
+                    }),
+                }
+                continue;
+            }
+            bricks.push(Brick { key, values });
+        }
+        Voxmap::from_parts(grid, layers, bricks, inside)
+    }
+
     /// The grid.
     pub fn grid(&self) -> &Grid {
         &self.grid

@@ -22,6 +22,14 @@ pub fn names(dir: &Path) -> Vec<String> {
     v
 }
 
+/// The directory named by `VPS_FUZZ_SEEDS`, created, where the `write_fuzz_seeds` tests write
+/// fuzz seeds; `None` when it is not set (the usual test run).
+pub fn fuzz_seed_dir() -> Option<std::path::PathBuf> {
+    let dir = std::path::PathBuf::from(std::env::var_os("VPS_FUZZ_SEEDS")?);
+    std::fs::create_dir_all(&dir).unwrap();
+    Some(dir)
+}
+
 /// A path as an argument.
 pub fn p(path: &Path) -> &str {
     path.to_str().unwrap()

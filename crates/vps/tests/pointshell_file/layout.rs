@@ -283,11 +283,9 @@ fn ply_export_parses() {
 /// after mode bytes 0 and 1 (see docs/FUZZING.md).
 #[test]
 fn write_fuzz_seeds() {
-    let Some(out) = std::env::var_os("VPS_FUZZ_SEEDS") else {
+    let Some(out) = fuzz_seed_dir() else {
         return;
     };
-    let out = PathBuf::from(out);
-    std::fs::create_dir_all(&out).unwrap();
     let tiny = ball(1.0, 0.5);
     let empty = Pointshell {
         points: vec![],

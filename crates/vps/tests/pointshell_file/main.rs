@@ -12,10 +12,10 @@ mod layout;
 mod semantics;
 
 use std::mem::{offset_of, size_of};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use common::names;
 use common::pointshell_bytes::*;
+use common::{fuzz_seed_dir, names};
 use glam::{DVec3, Vec3};
 use vps::mesh::Mesh;
 use vps::pointshell::tree::{SphereNode, SphereTree, LEAF_SIZE, NO_CHILD};

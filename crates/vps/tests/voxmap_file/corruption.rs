@@ -1,0 +1,193 @@
+//! Every flipped byte caught, each kind of corruption named, truncation at every length, and
+//! garbage that never panics.
+
+use super::*;
+
+#[test]
+fn flipping_any_byte_is_caught() {
+    let vm = ball(1, 5.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    assert!(good.len() < 20_000, "{}", good.len());
+    for i in 0..good.len() {
+        let mut bad = good.clone();
+        bad[i] ^= 0x10;
+        match VoxmapFile::from_bytes(&bad) {
+            Err(_) => {}
+            Ok(f) => {
+                assert!(f.verify().is_err(), "flip at byte {i} not detected");
+                assert!(f.to_voxmap().is_err(), "flip at byte {i} not detected");
+                // Lookups may fail but must not panic.
+                for key in 0..f.grid().brick_count() {
+                    let _ = f.brick(key);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn corruption_gives_the_specific_error() {
+    let vm = ball(2, 16.0);
+    let dir = tmp();
+    let (path, good) = written(dir.path(), &vm);
+    let h = header_of(&good);
+    assert_eq!(
+        good.len() as u64 - h.runs_offset,
+        h.inside_runs * RUN_ENTRY_BYTES as u64
+    );
+    let write_bad = |bad: &[u8]| {
+        std::fs::write(&path, bad).unwrap();
+        VoxmapFile::open(&path)
+    };
+
+    // Header: a byte of the origin.
+    let mut bad = good.clone();
+    bad[20] ^= 1;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::HeaderChecksum { .. }), "{e}");
+    assert!(e.to_string().contains("a.vxm"), "{e}");
+    assert!(e.to_string().contains("header checksum"), "{e}");
+
+    // Index: a byte of the third entry's offset.
+    let mut bad = good.clone();
+    bad[h.index_offset as usize + 2 * INDEX_ENTRY_BYTES + 9] ^= 4;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::IndexChecksum { .. }), "{e}");
+
+    // Run table.
+    assert!(h.inside_runs > 0);
+    let mut bad = good.clone();
+    bad[h.runs_offset as usize + 1] ^= 1;
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::RunTableChecksum { .. }), "{e}");
+
+    // A brick payload: open succeeds, that brick and verify fail, others still read.
+    let entry = 5;
+    let key = vm.bricks()[entry].key;
+    let file = VoxmapFile::from_bytes(&good).unwrap();
+    let e5 = file.index().unwrap()[entry];
+    let mut bad = good.clone();
+    bad[e5.offset as usize + e5.len as usize / 2] ^= 0x40;
+    let file = write_bad(&bad).unwrap();
+    let e = file.brick(key).unwrap_err();
+    assert!(
+        matches!(e, StorageError::BrickChecksum { index: 5, key: k, .. } if k == key),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains(&format!("brick 5 (key {key}) checksum mismatch")),
+        "{e}"
+    );
+    let v = vm.grid().brick_coords(key).map(|c| c * 8);
+    assert!(matches!(file.value(v), Err(StorageError::BrickChecksum { .. })));
+    let other = vm.bricks()[entry + 1].key;
+    assert!(matches!(file.brick(other), Ok(BrickData::Stored(_))));
+    let e = file.verify().unwrap_err();
+    assert!(matches!(e, StorageError::BrickChecksum { index: 5, .. }), "{e}");
+    assert!(file.to_voxmap().is_err());
+
+    // Wrong magic.
+    let mut bad = good.clone();
+    bad[..4].copy_from_slice(b"PK\x03\x04");
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::BadMagic { .. }), "{e}");
+    assert!(e.to_string().contains("not a .vxm voxmap file"), "{e}");
+
+    // Wrong version with a correct header checksum: only the version is wrong.
+    let mut h2 = h;
+    h2.version = VERSION + 1;
+    h2.header_crc = h2.compute_crc();
+    let mut bad = good.clone();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h2));
+    assert_eq!(
+        u32::from_le_bytes(bad[VERSION_OFFSET..VERSION_OFFSET + 4].try_into().unwrap()),
+        VERSION + 1
+    );
+    let e = write_bad(&bad).unwrap_err();
+    assert!(
+        matches!(e, StorageError::UnsupportedVersion { found, supported, .. } if found == VERSION + 1 && supported == VERSION),
+        "{e}"
+    );
+
+    // A consistent header whose counts lie: open trusts it, verify does not.
+    let mut h3 = h;
+    h3.surface_voxels += 1;
+    h3.header_crc = h3.compute_crc();
+    let mut bad = good.clone();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h3));
+    let file = write_bad(&bad).unwrap();
+    let e = file.verify().unwrap_err();
+    assert!(
+        matches!(e, StorageError::HeaderMismatch { field: "surface_voxels", header, data, .. } if header == data + 1),
+        "{e}"
+    );
+    assert!(e.to_string().contains("surface_voxels"), "{e}");
+
+    // Trailing garbage.
+    let mut bad = good.clone();
+    bad.extend_from_slice(&[0; 8]);
+    let e = write_bad(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::Corrupt { .. }), "{e}");
+
+    // Not there at all.
+    let e = VoxmapFile::open(dir.path().join("missing.vxm")).unwrap_err();
+    assert!(matches!(e, StorageError::Io { .. }), "{e}");
+    assert!(e.to_string().contains("missing.vxm"), "{e}");
+}
+
+#[test]
+fn truncation_at_every_length() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    let (path, good) = written(dir.path(), &vm);
+    for len in 0..good.len() {
+        let e = VoxmapFile::from_bytes(&good[..len]).unwrap_err();
+        let expected = if len < HEADER_BYTES {
+            HEADER_BYTES as u64
+        } else {
+            good.len() as u64
+        };
+        assert!(
+            matches!(e, StorageError::Truncated { expected: x, actual, .. } if x == expected && actual == len as u64),
+            "length {len}: {e}"
+        );
+    }
+    // Through the file system too, including the empty file.
+    for len in [0, 3, 100, HEADER_BYTES + 1, good.len() - 1] {
+        std::fs::write(&path, &good[..len]).unwrap();
+        let e = VoxmapFile::open(&path).unwrap_err();
+        assert!(matches!(e, StorageError::Truncated { .. }), "{e}");
+    }
+}
+
+#[test]
+fn errors_on_garbage_never_panic() {
+    let vm = ball(2, 7.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for _ in 0..2000 {
+        let mut bad = good.clone();
+        for _ in 0..1 + next() % 4 {
+            let i = (next() % bad.len() as u64) as usize;
+            bad[i] = next() as u8;
+        }
+        let cut = (next() % (bad.len() as u64 + 1)) as usize;
+        if next() % 4 == 0 {
+            bad.truncate(cut);
+        }
+        if let Ok(f) = VoxmapFile::from_bytes(&bad) {
+            let _ = f.verify();
+            let _ = f.to_voxmap();
+            let _ = f.value([3, 4, 5]);
+        }
+    }
+}

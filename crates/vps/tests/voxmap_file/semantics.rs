@@ -1,0 +1,336 @@
+//! Header semantics behind valid checksums: forged fields refused on open, or read without a
+//! panic, and `verify` checks the data against the header.
+
+use super::*;
+
+/// `good` with its header edited by `edit`, then the index, run table and header checksums
+/// recomputed the way the writer computes them (over the ranges the edited header names,
+/// where they lie inside the file), so that only the edit is wrong.
+fn forge(good: &[u8], edit: impl FnOnce(&mut RawHeader, &mut [u8])) -> Vec<u8> {
+    let mut bytes = good.to_vec();
+    let mut h = header_of(&bytes);
+    edit(&mut h, &mut bytes);
+    let range = |start: u64, end: u64| {
+        let (s, e) = (usize::try_from(start).ok()?, usize::try_from(end).ok()?);
+        (s <= e && e <= bytes.len()).then_some(s..e)
+    };
+    if let Some(r) = range(h.index_offset, h.runs_offset) {
+        h.index_crc = crc32fast::hash(&bytes[r]);
+    }
+    if let Some(r) = range(h.runs_offset, h.file_bytes) {
+        h.runs_crc = crc32fast::hash(&bytes[r]);
+    }
+    h.header_crc = h.compute_crc();
+    bytes[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+    bytes
+}
+
+/// The field named by an `InvalidHeader` error, or a panic naming what happened instead.
+fn invalid_field(r: Result<VoxmapFile, StorageError>) -> &'static str {
+    match r {
+        Err(StorageError::InvalidHeader { field, .. }) => field,
+        Err(e) => panic!("expected InvalidHeader, got {e}"),
+        Ok(_) => panic!("expected InvalidHeader, the file opened"),
+    }
+}
+
+/// Everything `vps info` derives from a header, and a few lookups: must not panic.
+pub(super) fn exercise(file: &VoxmapFile) {
+    let h = file.header();
+    let voxels = h.grid_voxels();
+    let product: u128 = h.grid.dims.iter().map(|&d| d as u128).product();
+    assert_eq!(voxels as u128, product, "grid_voxels wrapped");
+    assert_eq!(h.uncompressed_bytes() as u128, h.counts.bricks_stored as u128 * 512);
+    assert!(h.uncompressed_bytes() <= voxels);
+    let d = h.grid.dims;
+    for v in [
+        [0, 0, 0],
+        d.map(|x| x - 1),
+        d,
+        [u32::MAX; 3],
+        [d[0] / 2, d[1] / 3, d[2] - 1],
+    ] {
+        let _ = file.value(v);
+        let _ = file.value_at(h.grid.voxel_center(v));
+    }
+    let n = h.grid.brick_count();
+    for key in [0, n / 2, n.saturating_sub(1), n, u64::MAX] {
+        let _ = file.brick(key);
+    }
+}
+
+#[test]
+fn header_semantics_are_checked_on_open() {
+    let vm = ball(3, 20.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    let h = header_of(&good);
+    assert!(h.inside_runs > 0 && h.inside_tile_bricks > 0 && h.bricks_stored > 1);
+    exercise(&VoxmapFile::from_bytes(&forge(&good, |_, _| {})).unwrap());
+
+    type Edit = (&'static str, fn(&mut RawHeader), &'static str);
+    let edits: [Edit; 24] = [
+        // The file: 2²⁴ voxels each way, 2⁷² in all, which `info` printed as 0.
+        ("dims 2^24 each", |h| h.dims = [1 << 24; 3], "dims"),
+        ("a zero dimension", |h| h.dims[1] = 0, "dims"),
+        ("all dimensions zero", |h| h.dims = [0; 3], "dims"),
+        ("not whole bricks", |h| h.dims[2] += 4, "dims"),
+        ("beyond 2^24", |h| h.dims[0] = (1 << 24) + 8, "dims"),
+        (
+            "2^24 x 2^24 x 2^16: 2^64 voxels",
+            |h| h.dims = [1 << 24, 1 << 24, 1 << 16],
+            "dims",
+        ),
+        ("NaN voxel size", |h| h.voxel_size = f64::NAN, "voxel_size"),
+        ("negative voxel size", |h| h.voxel_size = -1.0, "voxel_size"),
+        ("zero voxel size", |h| h.voxel_size = 0.0, "voxel_size"),
+        ("infinite voxel size", |h| h.voxel_size = f64::INFINITY, "voxel_size"),
+        ("grid reaching infinity", |h| h.voxel_size = 1e307, "voxel_size"),
+        ("infinite origin", |h| h.origin[1] = f64::INFINITY, "origin"),
+        ("NaN origin", |h| h.origin[2] = f64::NAN, "origin"),
+        (
+            "origin beyond the voxel lattice",
+            |h| {
+                h.origin[0] = 1e300;
+                h.voxel_size = 1e-300
+            },
+            "origin",
+        ),
+        ("layers out of range", |h| h.layers = 127, "layers"),
+        ("layers 255", |h| h.layers = u8::MAX, "layers"),
+        (
+            "more stored bricks than the grid",
+            |h| h.bricks_stored = u64::MAX / 16,
+            "bricks_stored",
+        ),
+        (
+            "stored and inside bricks exceed the grid",
+            |h| h.inside_tile_bricks = u64::MAX,
+            "inside_tile_bricks",
+        ),
+        (
+            "more runs than inside bricks",
+            |h| h.inside_runs = h.inside_tile_bricks + 1,
+            "inside_runs",
+        ),
+        (
+            "inside bricks with no runs",
+            |h| h.inside_runs = 0,
+            "inside_tile_bricks",
+        ),
+        (
+            "surface beyond the stored bricks",
+            |h| h.surface_voxels = 512 * h.bricks_stored + 1,
+            "surface_voxels",
+        ),
+        (
+            "inner below the inside tiles",
+            |h| h.inner_voxels = 512 * h.inside_tile_bricks - 1,
+            "inner_voxels",
+        ),
+        (
+            "payload bytes beyond 1024 a brick",
+            |h| h.payload_bytes = 1024 * h.bricks_stored + 8,
+            "payload_bytes",
+        ),
+        (
+            "one index entry fewer than the index holds",
+            |h| h.bricks_stored -= 1,
+            "runs_offset",
+        ),
+    ];
+    for (name, edit, field) in edits {
+        let bad = forge(&good, |h, _| edit(h));
+        assert_eq!(invalid_field(VoxmapFile::from_bytes(&bad)), field, "{name}");
+        let e = VoxmapFile::from_bytes(&bad).unwrap_err().to_string();
+        assert!(e.contains(&format!("header field {field} is invalid")), "{name}: {e}");
+    }
+
+    // The writer refuses the grid too.
+    let big = Grid {
+        origin: DVec3::ZERO,
+        voxel_size: 1.0,
+        dims: [1 << 24; 3],
+    };
+    let e = VoxmapWriter::create(dir.path().join("big.vxm"), big, 2).unwrap_err();
+    assert!(matches!(e, StorageError::InvalidInput { .. }), "{e}");
+
+    // The largest grids the limits allow still open, and `info`'s numbers are exact.
+    for dims in [[1 << 24, 1 << 24, 1 << 15], [1 << 24, 8, 8], [8, 8, 1 << 24]] {
+        let bad = forge(&good, |h, _| h.dims = dims);
+        let file = VoxmapFile::from_bytes(&bad).unwrap();
+        exercise(&file);
+        assert_eq!(
+            file.header().grid_voxels() as u128,
+            dims.iter().map(|&d| d as u128).product::<u128>()
+        );
+    }
+}
+
+#[test]
+fn verify_checks_the_data_against_the_header() {
+    let vm = ball(3, 20.0);
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &vm);
+    let h = header_of(&good);
+    let n = vm.grid().brick_count();
+    let entry = |i: u64| (h.index_offset + i * INDEX_ENTRY_BYTES as u64) as usize;
+    let run = |i: u64| (h.runs_offset + i * RUN_ENTRY_BYTES as u64) as usize;
+
+    // The last brick's key moved beyond the grid: the index stays sorted and its CRC valid.
+    let last = h.bricks_stored - 1;
+    let bad = forge(&good, |_, b| {
+        b[entry(last)..entry(last) + 8].copy_from_slice(&n.to_le_bytes())
+    });
+    let file = VoxmapFile::from_bytes(&bad).unwrap();
+    exercise(&file);
+    let e = file.verify().unwrap_err();
+    assert!(
+        matches!(e, StorageError::KeyOutOfRange { index, key, brick_count, .. } if index == last && key == n && brick_count == n),
+        "{e}"
+    );
+
+    // The last run reaching beyond the grid.
+    let last = h.inside_runs - 1;
+    let bad = forge(&good, |_, b| {
+        b[run(last) + 8..run(last) + 16].copy_from_slice(&(n + 1).to_le_bytes())
+    });
+    let file = VoxmapFile::from_bytes(&bad).unwrap();
+    exercise(&file);
+    let e = file.verify().unwrap_err();
+    assert!(
+        matches!(e, StorageError::RunOutOfRange { index, end, .. } if index == last && end == n + 1),
+        "{e}"
+    );
+
+    // Fewer layers than the bricks were written with: stored values ±4 are beyond ±(2 + 1).
+    let bad = forge(&good, |h, _| h.layers = 2);
+    let file = VoxmapFile::from_bytes(&bad).unwrap();
+    exercise(&file);
+    let e = file.verify().unwrap_err();
+    assert!(
+        matches!(e, StorageError::ValueOutOfRange { layers: 2, limit: 3, value, .. } if value.abs() == 4),
+        "{e}"
+    );
+    assert!(e.to_string().contains("for 2 layers"), "{e}");
+    assert!(file.to_voxmap().is_err());
+
+    // Counts that pass open's bounds but not the recount.
+    type Edit = (&'static str, fn(&mut RawHeader), &'static str);
+    let edits: [Edit; 3] = [
+        ("surface", |h| h.surface_voxels -= 1, "surface_voxels"),
+        ("inner", |h| h.inner_voxels += 1, "inner_voxels"),
+        ("inside tiles", |h| h.inside_tile_bricks += 1, "inside_tile_bricks"),
+    ];
+    for (name, edit, want) in edits {
+        let bad = forge(&good, |h, _| edit(h));
+        let file = VoxmapFile::from_bytes(&bad).unwrap_or_else(|e| panic!("{name}: {e}"));
+        exercise(&file);
+        match file.verify() {
+            Err(StorageError::HeaderMismatch { field, .. }) => assert_eq!(field, want, "{name}"),
+            other => panic!("{name}: expected HeaderMismatch, got {other:?}"),
+        }
+    }
+    assert!(VoxmapFile::from_bytes(&good).unwrap().verify().is_ok());
+}
+
+/// The header fields of `docs/FORMAT.md` as (offset, size), every byte but the CRC.
+const HEADER_FIELDS: [(usize, usize); 27] = [
+    (8, 4),
+    (12, 4),
+    (16, 8),
+    (24, 8),
+    (32, 8),
+    (40, 8),
+    (48, 4),
+    (52, 4),
+    (56, 4),
+    (60, 1),
+    (61, 1),
+    (62, 1),
+    (63, 1),
+    (64, 8),
+    (72, 8),
+    (80, 8),
+    (88, 8),
+    (96, 8),
+    (104, 8),
+    (112, 8),
+    (120, 8),
+    (128, 8),
+    (136, 8),
+    (144, 4),
+    (148, 4),
+    (152, 32),
+    (184, 4),
+];
+
+/// Values worth trying in a field: edges of the integer and float ranges, and the limits.
+fn field_value() -> impl Strategy<Value = u64> {
+    prop_oneof![
+        any::<u64>(),
+        0u64..1100,
+        prop::sample::select(vec![
+            0,
+            1,
+            7,
+            8,
+            127,
+            255,
+            1 << 21,
+            1 << 24,
+            (1 << 24) + 8,
+            u32::MAX as u64,
+            1 << 32,
+            1 << 63,
+            u64::MAX,
+            u64::MAX / 512,
+            f64::NAN.to_bits(),
+            f64::INFINITY.to_bits(),
+            (-1.0f64).to_bits(),
+            1e-300f64.to_bits(),
+            1e300f64.to_bits(),
+            f64::MIN_POSITIVE.to_bits(),
+            5e-324f64.to_bits(),
+        ]),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    /// Random header fields, with every checksum recomputed: open either refuses the file
+    /// or gives one whose derived values, lookups, verify and load all return without a panic.
+    #[test]
+    fn forged_headers_never_panic(
+        edits in proptest::collection::vec((0..HEADER_FIELDS.len(), field_value(), any::<bool>()), 1..4),
+    ) {
+        let good = forged_header_base();
+        let bad = forge(good, |h, _| {
+            let bytes = bytemuck::bytes_of_mut(h);
+            for &(f, v, add) in &edits {
+                let (at, size) = HEADER_FIELDS[f];
+                let old = bytes[at..at + size.min(8)].iter().rev().fold(0u64, |a, &b| (a << 8) | b as u64);
+                let v = if add { old.wrapping_add(v % 1024) } else { v };
+                for (i, b) in bytes[at..at + size].iter_mut().enumerate() {
+                    *b = if i < 8 { (v >> (8 * i)) as u8 } else { 0 };
+                }
+            }
+        });
+        if let Ok(file) = VoxmapFile::from_bytes(&bad) {
+            exercise(&file);
+            if file.verify().is_ok() {
+                let vm = file.to_voxmap().unwrap();
+                prop_assert_eq!(vm.counts(), file.header().counts);
+            }
+        }
+    }
+}
+
+/// The small file the header property test forges from, written once.
+fn forged_header_base() -> &'static [u8] {
+    static BASE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    BASE.get_or_init(|| {
+        let dir = tmp();
+        written(dir.path(), &ball(1, 5.0)).1
+    })
+}
