@@ -180,7 +180,7 @@ impl Grid {
     /// Computed as `p / s − k` with `k` the origin in whole voxels, not as `(p − origin) / s`:
     /// a point on the world lattice (`p / s` a whole number) then lands exactly on a voxel face
     /// whatever the origin, so the surface depends only on the mesh and the voxel size, not on
-    /// the padding (`--layers`) or the slab that placed the origin.
+    /// the padding (the layers) or the slab that placed the origin.
     #[inline]
     pub fn to_grid_units(&self, p: DVec3) -> DVec3 {
         p / self.voxel_size - self.origin_voxels()

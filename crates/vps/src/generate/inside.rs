@@ -1,4 +1,4 @@
-//! Which voxels lie inside a closed object, for `--fill objects`: the parity of the object's
+//! Which voxels lie inside a closed object, for `Fill::Objects`: the parity of the object's
 //! triangles crossed by a vertical line through each voxel column's centre.
 //!
 //! Below its lowest crossing a column is outside the object; each crossing switches between

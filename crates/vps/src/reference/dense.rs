@@ -52,7 +52,7 @@ pub fn dense_voxmap(dims: [u32; 3], surface: &[bool], layers: u8) -> DenseGrid {
     dense_layers(dims, surface, &outside, layers)
 }
 
-/// The `--fill objects` reference: a voxel is inside when it is no surface voxel and its
+/// The `Fill::Objects` reference: a voxel is inside when it is no surface voxel and its
 /// centre is inside some closed object, by the parity of that object's triangles crossed above
 /// it, every triangle tested against every voxel centre; then layered from all the surfaces.
 pub fn dense_objects_voxmap(grid: &Grid, objects: &[&[Triangle]], layers: u8) -> DenseGrid {

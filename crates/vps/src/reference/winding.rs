@@ -1,4 +1,4 @@
-//! The `--fill winding` reference: every voxel centre against every triangle, by the plain sum
+//! The `Fill::Winding` reference: every voxel centre against every triangle, by the plain sum
 //! of signed solid angles (Van Oosterom & Strackee), for small grids, with the interface (inside
 //! voxels that touch air) found by looking at every voxel's neighbours.
 

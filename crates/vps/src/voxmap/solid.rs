@@ -1,4 +1,4 @@
-//! Which non-surface voxels are inside: the two fills of `--fill`.
+//! Which non-surface voxels are inside: the two flood fills (`Fill::Scene`, `Fill::Objects`).
 //!
 //! - [`Solid::Scene`]: the paper's flood fill from the outside of the whole scene; whatever it
 //!   does not reach is inside. A car body's cabin is then inside, as the body encloses it.

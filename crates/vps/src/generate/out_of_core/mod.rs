@@ -7,10 +7,10 @@
 //! 1. **Surface**, chunk plane by chunk plane (64 voxels of x), chunks in parallel, from the
 //!    same triangle binning as the in-memory path. Each plane's surface masks go to a spill
 //!    file (72 bytes a surface brick, checksummed).
-//! 2. **Scene fill** (`--fill scene` only): each slab's open voxels are split into connected
+//! 2. **Scene fill** (`Fill::Scene` only): each slab's open voxels are split into connected
 //!    components ([`Components`]); labels that touch across a slab boundary are united, and
 //!    the components united with voxel (0, 0, 0) are the outside. This is exact however the
-//!    outside winds between slabs. `--fill objects` needs no such pass: parity is decided per
+//!    outside winds between slabs. `Fill::Objects` needs no such pass: parity is decided per
 //!    voxel column, and a column lies in one slab.
 //! 3. **Layers and values**, slab by slab in key order: the surface of the slab and of a halo
 //!    of `⌈layers / 8⌉` planes on each side (all the layers can see), the chessboard
@@ -60,7 +60,7 @@ const NEAR_BRICK_BYTES: u64 = 800;
 /// Bytes per surface brick of the slab for its fill: walls, reached masks, component parts
 /// (scene) or partial inside masks in a hash map (objects).
 const FILL_BRICK_BYTES: u64 = 320;
-/// Crossings of one brick plane of columns, for `--fill objects` (transient).
+/// Crossings of one brick plane of columns, for `Fill::Objects` (transient).
 const CROSSINGS_BYTES: u64 = 16 << 20;
 
 /// How to run out of core.

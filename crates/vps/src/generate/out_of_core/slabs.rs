@@ -62,9 +62,9 @@ impl SlabEstimate<'_> {
 
 /// What pass 3 needs to decide each slab's inside.
 pub(super) enum SlabFill {
-    /// `--fill scene`: which labels of each slab's components are outside.
+    /// `Fill::Scene`: which labels of each slab's components are outside.
     Scene(SlabLabels),
-    /// `--fill objects`: the closed objects, to cast their columns slab by slab.
+    /// `Fill::Objects`: the closed objects, to cast their columns slab by slab.
     Objects(ObjectColumns),
 }
 
@@ -82,7 +82,7 @@ impl SlabLabels {
     }
 }
 
-/// Pass 2 for `--fill scene`: label each slab's components, unite them across slab
+/// Pass 2 for `Fill::Scene`: label each slab's components, unite them across slab
 /// boundaries, and mark those joined to voxel (0, 0, 0).
 pub(super) fn scene_outside(
     slabs: &[Range<u32>],
@@ -141,8 +141,8 @@ pub(super) fn scene_outside(
     Ok(SlabLabels { first, outside })
 }
 
-/// The objects of a mesh that have an inside, and their extents along x, for `--fill objects`
-/// and `--fill winding` slab by slab.
+/// The objects of a mesh that have an inside, and their extents along x, for `Fill::Objects`
+/// and `Fill::Winding` slab by slab.
 pub(super) struct ObjectColumns {
     /// Index of each object with an inside, the brick planes its triangles span, and for the
     /// winding fill what it needs of the object besides its triangles.

@@ -1,4 +1,4 @@
-//! `--fill winding`: a voxel is inside an object when the object's generalized winding number
+//! `Fill::Winding`: a voxel is inside an object when the object's generalized winding number
 //! at its centre has magnitude at least [`THRESHOLD`] (Jacobson et al. 2013), so open, cracked,
 //! flipped and duplicated CAD surfaces get a solid inside.
 //!
