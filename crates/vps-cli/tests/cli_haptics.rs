@@ -8,12 +8,11 @@ use std::path::PathBuf;
 use std::process::Output;
 
 use glam::DVec3;
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::haptics::{contact, CachedVoxmap, ContactParams, Pose};
-use vps::mesh::Mesh;
 use vps::shapes;
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
-use vps::storage::write_voxmap;
+use vps::{
+    contact, voxelize, write_pointshell, write_voxmap, CachedVoxmap, ContactParams, Mesh, PointshellFile, Pose,
+    VoxelizeParams,
+};
 
 /// A failure the way users should see it: exit code 1, a message naming `needle`, no panic.
 fn assert_clean_failure(o: &Output, needle: &str) {

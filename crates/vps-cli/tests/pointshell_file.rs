@@ -9,10 +9,9 @@ use std::path::Path;
 use std::process::Output;
 
 use glam::DVec3;
-use vps::mesh::Triangle;
 use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::storage::pointshell::PointshellFile;
+use vps::{PointshellFile, Triangle};
 
 fn write_obj(path: &Path, tris: &[Triangle]) {
     let mut s = String::from("o ball\n");

@@ -7,10 +7,8 @@ use common::{p, stderr, vps, write_obj};
 use std::path::PathBuf;
 
 use glam::DVec3;
-use vps::generate::{voxelize, Fill, VoxelizeParams};
-use vps::mesh::Mesh;
 use vps::shapes;
-use vps::storage::VoxmapFile;
+use vps::{voxelize, Fill, Mesh, VoxelizeParams, VoxmapFile};
 
 /// A transform applied by hand, as the scene applies it.
 type Place = dyn Fn(DVec3) -> DVec3;

@@ -12,14 +12,13 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{DQuat, DVec3};
-use vps::generate::pointshell::pointshell;
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::haptics::{contact, contact_brute_force, CachedVoxmap, ContactParams, Pose};
-use vps::mesh::Mesh;
+use vps::haptics::contact_brute_force;
 use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
-use vps::storage::write_voxmap;
+use vps::{
+    contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, ContactParams, Mesh, PointshellFile,
+    Pose, VoxelizeParams,
+};
 
 /// Points of a unit ball's pointshell at voxel size `v` are about 18.8 / v².
 fn ball_voxel_size(points: f64) -> f64 {

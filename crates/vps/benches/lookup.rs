@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::DVec3;
-use vps::grid::{Grid, BRICK_VOXELS};
-use vps::storage::{write_voxmap, BrickData, VoxmapFile};
-use vps::voxmap::Voxmap;
+use vps::grid::BRICK_VOXELS;
+use vps::storage::BrickData;
+use vps::{write_voxmap, Grid, Voxmap, VoxmapFile};
 
 /// A bumpy ball and a slab, as layered values: stored bricks near the surface, inside runs
 /// for bricks wholly deep inside, nothing for bricks far outside.

@@ -15,11 +15,9 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{DVec3, Vec3};
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::mesh::Mesh;
 use vps::pointshell::tree::{build, reference, reorder, SphereTree, LEAF_SIZE};
 use vps::shapes::{self, SplitMix};
-use vps::voxmap::Voxmap;
+use vps::{voxelize, Mesh, VoxelizeParams, Voxmap};
 
 /// Uniform on the unit sphere, from a fixed stream so that runs compare.
 fn direction(rng: &mut SplitMix) -> Vec3 {

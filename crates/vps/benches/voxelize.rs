@@ -7,13 +7,11 @@ use std::hint::black_box;
 
 use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
 use vps::generate::surface::mark_surface;
-use vps::generate::{voxelize, VoxelizeParams};
 use vps::geometry::sat::SatTriangle;
-use vps::grid::Grid;
-use vps::mesh::Mesh;
 use vps::shapes;
 use vps::voxmap::fill::Outside;
 use vps::voxmap::layers::distance_layers;
+use vps::{voxelize, Grid, Mesh, VoxelizeParams};
 
 /// Triangles of a sphere of radius 1 scaled so each triangle spans about `span` voxels.
 fn sphere_triangles_in_grid_units(span: f64) -> Vec<SatTriangle> {
@@ -124,7 +122,7 @@ fn pipeline(c: &mut Criterion) {
 /// slabs), both fills: the cost of bounded memory, as ratios in one run.
 fn out_of_core(c: &mut Criterion) {
     use vps::generate::out_of_core::{voxelize_bounded, Bounded};
-    use vps::generate::Fill;
+    use vps::Fill;
     let mesh = vps::synth::synth_car(&vps::synth::SynthParams {
         triangles: 200_000,
         seed: 1,

@@ -8,10 +8,9 @@ use std::path::Path;
 
 use common::mesh_files::*;
 use glam::DVec3;
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::mesh::{Format, LoadOptions, Mesh, MeshError, Triangle};
-use vps::scene::Scene;
+use vps::mesh::{Format, MeshError};
 use vps::shapes;
+use vps::{voxelize, LoadOptions, Mesh, Scene, Triangle, VoxelizeParams};
 
 /// A sphere with its corners rounded to `f32`, so that every format holds it exactly.
 fn sphere() -> Vec<Triangle> {

@@ -6,14 +6,13 @@ use std::time::Duration;
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
-use vps::generate::pointshell::pointshell;
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::haptics::{contact, contact_brute_force, CachedVoxmap, Contact, ContactParams, Pose};
-use vps::mesh::{Mesh, Triangle};
+use vps::haptics::contact_brute_force;
 use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
-use vps::storage::write_voxmap;
+use vps::{
+    contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, Contact, ContactParams, Mesh,
+    PointshellFile, Pose, Triangle, VoxelizeParams,
+};
 
 /// A voxmap and a pointshell, written to files and opened as a query would.
 struct Pair {

@@ -8,10 +8,8 @@ use std::collections::BTreeSet;
 
 use glam::DVec3;
 use vps::generate::out_of_core::{voxelize_bounded, Bounded};
-use vps::generate::{voxelize, Fill, VoxelizeParams};
-use vps::mesh::{Mesh, Triangle};
 use vps::shapes;
-use vps::storage::VoxmapFile;
+use vps::{voxelize, Fill, Mesh, Triangle, VoxelizeParams, VoxmapFile};
 
 use common::assembly;
 

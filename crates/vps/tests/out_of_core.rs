@@ -11,11 +11,10 @@ use glam::DVec3;
 use proptest::prelude::*;
 
 use vps::generate::out_of_core::{voxelize_bounded, Bounded};
-use vps::generate::{voxelize, Fill, GenerateError, VoxelizeParams};
-use vps::mesh::{Mesh, Triangle};
+use vps::generate::GenerateError;
 use vps::shapes;
-use vps::storage::{write_voxmap, VoxmapFile};
 use vps::synth::{synth_car, SynthParams};
+use vps::{voxelize, write_voxmap, Fill, Mesh, Triangle, VoxelizeParams, VoxmapFile};
 
 fn params(voxel_size: f64, layers: u8, fill: Fill) -> VoxelizeParams {
     VoxelizeParams {

@@ -2,14 +2,10 @@
 //! normals pointing in; against brute force and the analytic sphere.
 
 use glam::DVec3;
-use vps::generate::pointshell::pointshell;
-use vps::generate::{voxelize, VoxelizeParams};
 use vps::geometry::closest::closest_point;
-use vps::mesh::Mesh;
-use vps::pointshell::shell::Pointshell;
 use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::voxmap::Voxmap;
+use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams, Voxmap};
 
 fn make(mesh: &Mesh, voxel_size: f64) -> (Voxmap, Pointshell) {
     let params = VoxelizeParams {

@@ -5,11 +5,9 @@ mod common;
 
 use std::path::PathBuf;
 
-use vps::generate::{surface, voxelize, VoxelizeParams};
-use vps::mesh::Mesh;
+use vps::generate::surface;
 use vps::reference::dense::{dense_surface, dense_voxmap};
-use vps::storage::{write_voxmap, VoxmapFile};
-use vps::voxmap::Voxmap;
+use vps::{voxelize, write_voxmap, Mesh, VoxelizeParams, Voxmap, VoxmapFile};
 
 fn meshes_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("VPS_MESHES")
@@ -131,7 +129,7 @@ fn real_meshes_round_trip_through_files() {
 #[test]
 fn real_assemblies_out_of_core_equal_in_memory() {
     use vps::generate::out_of_core::{voxelize_bounded, Bounded};
-    use vps::generate::Fill;
+    use vps::Fill;
     let Some(dir) = meshes_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();
     for name in [

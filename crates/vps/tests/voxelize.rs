@@ -10,13 +10,12 @@ use common::{assembly, random_part};
 use glam::DVec3;
 use proptest::prelude::*;
 use vps::generate::navigate::{touched_voxels, NavStats, Navigation};
-use vps::generate::{surface, voxelize, Fill, VoxelizeParams};
+use vps::generate::surface;
 use vps::geometry::sat::SatTriangle;
-use vps::grid::Grid;
-use vps::mesh::{Mesh, Triangle};
 use vps::reference::dense::{dense_objects_voxmap, dense_surface, dense_voxmap};
 use vps::shapes;
-use vps::voxmap::{inside_value, outside_value, Voxmap};
+use vps::voxmap::{inside_value, outside_value};
+use vps::{voxelize, Fill, Grid, Mesh, Triangle, VoxelizeParams, Voxmap};
 
 fn dvec(v: (f64, f64, f64)) -> DVec3 {
     DVec3::new(v.0, v.1, v.2)

@@ -8,11 +8,9 @@ mod common;
 
 use glam::DVec3;
 use proptest::prelude::*;
-use vps::generate::{voxelize, Fill, VoxelizeParams};
-use vps::mesh::{Mesh, Triangle};
 use vps::reference::winding::WindingReference;
 use vps::shapes::{self, SplitMix};
-use vps::voxmap::Voxmap;
+use vps::{voxelize, Fill, Mesh, Triangle, VoxelizeParams, Voxmap};
 
 use common::assembly;
 

@@ -24,16 +24,13 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, Output, Stdio};
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use vps::generate::pointshell::pointshell;
-use vps::generate::{voxelize, VoxelizeParams};
-use vps::haptics::{contact, CachedVoxmap, Contact, ContactParams, HapticsError, Pose};
-use vps::mesh::{Mesh, Triangle};
+use vps::haptics::HapticsError;
 use vps::pointshell::tree::LEAF_SIZE;
-use vps::pointshell::Pointshell;
 use vps::shapes::{self, SplitMix};
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
-use vps::storage::{write_voxmap, VoxmapFile};
-use vps::voxmap::Voxmap;
+use vps::{
+    contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, Contact, ContactParams, Mesh,
+    Pointshell, PointshellFile, Pose, Triangle, VoxelizeParams, Voxmap, VoxmapFile,
+};
 use vps_capi::{self as ffi, VpsContactResult};
 
 /// Stiffness of every query; not a round number, so the products round.

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use glam::{DMat4, DQuat};
-use vps::mesh::Triangle;
+use vps::Triangle;
 
 /// A triangle with its corners rounded to `f32`, as STL and glTF store them.
 pub fn to_f32(t: &Triangle) -> Triangle {

@@ -9,8 +9,8 @@ pub mod mesh_files;
 pub mod pointshell_bytes;
 
 use glam::DVec3;
-use vps::mesh::{Mesh, Triangle};
 use vps::shapes;
+use vps::{Mesh, Triangle};
 
 /// The entries of `dir`, sorted.
 pub fn names(dir: &Path) -> Vec<String> {

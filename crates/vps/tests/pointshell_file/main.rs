@@ -17,12 +17,12 @@ use std::path::Path;
 use common::pointshell_bytes::*;
 use common::{fuzz_seed_dir, names};
 use glam::{DVec3, Vec3};
-use vps::mesh::Mesh;
 use vps::pointshell::tree::{SphereNode, SphereTree, LEAF_SIZE, NO_CHILD};
-use vps::pointshell::{Pointshell, PointshellStats};
+use vps::pointshell::PointshellStats;
 use vps::shapes;
 use vps::storage::pointshell::{
     write_ply, write_pointshell, PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1,
     PS_MAGIC, PS_VERSION, PS_VERSION_1,
 };
 use vps::storage::StorageError;
+use vps::{Mesh, Pointshell};

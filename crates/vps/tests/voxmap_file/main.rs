@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 use common::fuzz_seed_dir;
 use glam::DVec3;
 use proptest::prelude::*;
-use vps::grid::{Grid, BRICK_VOXELS};
+use vps::grid::BRICK_VOXELS;
 use vps::storage::format::{RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET};
-use vps::storage::{write_voxmap, BrickData, StorageError, VoxmapFile, VoxmapWriter};
-use vps::voxmap::{outside_value, Brick, BrickValues, KeyRange, Voxmap};
+use vps::storage::{BrickData, StorageError, VoxmapWriter};
+use vps::voxmap::{outside_value, Brick, BrickValues, KeyRange};
+use vps::{write_voxmap, Grid, Voxmap, VoxmapFile};
 
 /// A layered ball: stored bricks where the layers are, inside runs for the bricks wholly
 /// deep inside, nothing for those far outside.
