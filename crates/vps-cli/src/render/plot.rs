@@ -147,11 +147,11 @@ fn draw_panel<DB: DrawingBackend>(
         let msg = Text::new("no data", (w as i32 / 2, h as i32 / 2), style);
         return area.strip_coord_spec().draw(&msg).map_err(RenderError::draw);
     }
+    let colour = rgb(s.colour);
     for run in finite_runs(s.values) {
-        // Values beyond the range (only in a range too wide to subtract) sit on its edge.
-        let points = run.into_iter().map(|(x, y)| (x, y.clamp(lo, hi)));
-        let colour = rgb(s.colour);
-        let points: Vec<_> = points.collect();
+        // Values beyond the range (only in a range too wide to subtract) sit on its edge,
+        // where the mapping to pixels cannot overflow.
+        let points: Vec<_> = run.into_iter().map(|(x, y)| (x, y.clamp(lo, hi))).collect();
         if points.len() == 1 {
             // A lone value draws no line: a dot then.
             chart
