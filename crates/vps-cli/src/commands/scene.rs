@@ -5,16 +5,17 @@
 //! beside the target and renamed, so an error leaves no file.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 
 use clap::{Args, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use vps::mesh::obj_write::write_obj_file;
 use vps::synth::{synth_car, SynthParams, DEFAULT_SEED};
+
+use crate::progress::spinner;
 
 /// Subcommands of `vps scene`.
 #[derive(Subcommand, Debug)]
@@ -89,10 +90,7 @@ fn synth(args: &SynthArgs) -> Result<()> {
         seed: args.seed,
     };
     let start = Instant::now();
-    let pb = ProgressBar::new_spinner();
-    pb.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}").expect("static template"));
-    pb.enable_steady_tick(Duration::from_millis(120));
-    pb.set_message(format!("synthesizing {} triangles", args.triangles));
+    let pb = spinner(&format!("synthesizing {} triangles", args.triangles));
     let mesh = synth_car(&params)?;
     let t_generate = start.elapsed().as_secs_f64();
     pb.set_message(format!("writing {}", args.output.display()));

@@ -1,4 +1,5 @@
-//! `vps voxelize --memory-limit`: the out-of-core path, with progress, Ctrl-C and cleanup.
+//! `vps voxelize --memory-limit` (or over the default budget): the out-of-core path, with
+//! progress, Ctrl-C and cleanup.
 
 use std::path::Path;
 use std::sync::Mutex;
@@ -14,7 +15,10 @@ use vps::generate::{Fill, GenerateError, VoxelizeParams};
 use vps::mesh::Mesh;
 use vps::storage::directory_of;
 
-use crate::{interrupt, load_mesh, warn_fill, Summary};
+use crate::inputs::load_mesh;
+use crate::interrupt;
+use crate::memory::mib;
+use crate::voxelizing::{warn_fill, Summary};
 
 /// Where the mesh comes from: a file to load within the limit, or one already loaded.
 pub enum Input<'a> {
@@ -96,7 +100,6 @@ pub fn run(
     };
     warn_fill(&report.voxelize, params, &mesh)?;
     let grid = report.grid.context("the report names its grid")?;
-    let mib = |b: u64| b as f64 / (1 << 20) as f64;
     let extra_json = json!({
         "memory_limit_bytes": limit,
         "slabs": report.slabs,

@@ -1,0 +1,156 @@
+//! Replaying poses with timing, and the latency and throughput figures of the samples.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use glam::DVec3;
+
+use vps::haptics::{CachedVoxmap, Contact, ContactParams, HapticsError, Pose};
+use vps::storage::pointshell::PointshellFile;
+
+/// What one query leaves for the figures.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    pub micros: f64,
+    pub force: DVec3,
+    pub torque: DVec3,
+    pub points_in_contact: u64,
+    pub points_tested: u64,
+    pub complete: bool,
+    pub force_error_bound: f64,
+}
+
+impl Sample {
+    /// A tested point is in contact, or (when the budget ran out) spheres standing for their
+    /// points give a force.
+    pub fn in_contact(&self) -> bool {
+        self.points_in_contact > 0 || self.force != DVec3::ZERO
+    }
+
+    fn new(c: &Contact, micros: f64) -> Sample {
+        Sample {
+            micros,
+            force: c.force,
+            torque: c.torque,
+            points_in_contact: c.points_in_contact,
+            points_tested: c.points_tested,
+            complete: c.complete,
+            force_error_bound: c.force_error_bound,
+        }
+    }
+
+    /// Whether `other` has the same force, torque and contact count, bit for bit.
+    pub fn same_result(&self, other: &Sample) -> bool {
+        self.force == other.force && self.torque == other.torque && self.points_in_contact == other.points_in_contact
+    }
+}
+
+/// Latency and throughput figures of a run of queries.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Figures {
+    pub queries: usize,
+    pub first_us: f64,
+    /// Latency of the first query in contact: the first to read the object's bricks.
+    pub first_contact_us: Option<f64>,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub max_us: f64,
+    pub mean_us: f64,
+    pub points_tested_mean: f64,
+    pub points_tested_max: u64,
+    pub points_per_ms: f64,
+    pub queries_in_contact: usize,
+    pub incomplete_queries: usize,
+    pub max_force_error_bound: f64,
+    pub total_seconds: f64,
+}
+
+/// Nearest-rank percentile of sorted values.
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let rank = (p / 100.0 * sorted.len() as f64).ceil() as usize;
+    sorted[rank.clamp(1, sorted.len()) - 1]
+}
+
+/// The figures of a run.
+pub fn figures(samples: &[Sample]) -> Figures {
+    let mut lat: Vec<f64> = samples.iter().map(|s| s.micros).collect();
+    lat.sort_by(f64::total_cmp);
+    let n = samples.len().max(1) as f64;
+    let total_us: f64 = samples.iter().map(|s| s.micros).sum();
+    let tested: u64 = samples.iter().map(|s| s.points_tested).sum();
+    Figures {
+        queries: samples.len(),
+        first_us: samples.first().map_or(0.0, |s| s.micros),
+        first_contact_us: samples.iter().find(|s| s.in_contact()).map(|s| s.micros),
+        p50_us: percentile(&lat, 50.0),
+        p99_us: percentile(&lat, 99.0),
+        max_us: lat.last().copied().unwrap_or(0.0),
+        mean_us: total_us / n,
+        points_tested_mean: tested as f64 / n,
+        points_tested_max: samples.iter().map(|s| s.points_tested).max().unwrap_or(0),
+        points_per_ms: if total_us > 0.0 {
+            tested as f64 / (total_us / 1000.0)
+        } else {
+            0.0
+        },
+        queries_in_contact: samples.iter().filter(|s| s.in_contact()).count(),
+        incomplete_queries: samples.iter().filter(|s| !s.complete).count(),
+        max_force_error_bound: samples.iter().map(|s| s.force_error_bound).fold(0.0, f64::max),
+        total_seconds: total_us / 1e6,
+    }
+}
+
+/// A haptic query: the sphere-tree one or the brute-force reference.
+pub type Query = fn(&CachedVoxmap, &PointshellFile, &Pose, &ContactParams) -> Result<Contact, HapticsError>;
+
+/// Run every pose `repeat` times with `query`, timing each call.
+pub fn replay(
+    what: &str,
+    voxmap: &CachedVoxmap,
+    shell: &PointshellFile,
+    poses: &[Pose],
+    repeat: usize,
+    params: &ContactParams,
+    query: Query,
+) -> Result<Vec<Sample>> {
+    let total = poses.len() * repeat;
+    let pb = indicatif::ProgressBar::with_draw_target(Some(total as u64), indicatif::ProgressDrawTarget::stderr());
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{elapsed_precise}] {bar:40} {pos}/{len} queries")
+            .expect("static template"),
+    );
+    pb.set_message(what.to_string());
+    let mut samples = Vec::with_capacity(total);
+    for pass in 0..repeat {
+        for (i, pose) in poses.iter().enumerate() {
+            let t = Instant::now();
+            let c = query(voxmap, shell, pose, params)
+                .with_context(|| format!("{what}: query {} (pose {}, pass {})", i + 1, pose.to_text(), pass + 1))?;
+            let micros = t.elapsed().as_secs_f64() * 1e6;
+            samples.push(Sample::new(&c, micros));
+            if samples.len() % 64 == 0 {
+                pb.set_position(samples.len() as u64);
+            }
+        }
+    }
+    pb.finish_and_clear();
+    Ok(samples)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_use_nearest_rank() {
+        let v: Vec<f64> = (1..=100).map(|i| i as f64).collect();
+        assert_eq!(percentile(&v, 50.0), 50.0);
+        assert_eq!(percentile(&v, 99.0), 99.0);
+        assert_eq!(percentile(&v, 100.0), 100.0);
+        assert_eq!(percentile(&[7.0], 99.0), 7.0);
+        assert_eq!(percentile(&[], 50.0), 0.0);
+    }
+}

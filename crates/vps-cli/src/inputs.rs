@@ -1,0 +1,100 @@
+//! Opening the files the subcommands read: meshes and scenes (with progress and a memory
+//! limit), voxmaps and pointshells, each error naming the file.
+
+use std::io::Read;
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use vps::haptics::CachedVoxmap;
+use vps::mesh::Mesh;
+use vps::storage::pointshell::{PointshellFile, PS_MAGIC};
+use vps::storage::VoxmapFile;
+
+use crate::memory::human_bytes;
+
+/// A mesh of any format `Mesh::load` reads, or the meshes of a scene file (`.toml`, docs/SCENE.md) placed as one mesh,
+/// refused as soon as the triangles kept need more than `limit` bytes.
+pub fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
+    let pb = ProgressBar::new(0);
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg} {bytes}/{total_bytes}")
+            .expect("static template"),
+    );
+    pb.enable_steady_tick(Duration::from_millis(120));
+    pb.set_message(format!("reading {}", path.display()));
+    let progress = |read: u64, total: Option<u64>| {
+        pb.set_length(total.unwrap_or(read));
+        pb.set_position(read);
+    };
+    let mesh = if vps::scene::is_scene_path(path) {
+        let scene = vps::scene::Scene::load(path).context("loading the scene")?;
+        // Each mesh is counted as it loads; the placed whole is counted below.
+        let each = vps::mesh::LoadOptions {
+            max_mesh_bytes: limit,
+            progress: None,
+        };
+        scene
+            .to_mesh_with(|p| Mesh::load_with(p, &each))
+            .context("loading the scene")?
+    } else {
+        let options = vps::mesh::LoadOptions {
+            max_mesh_bytes: limit,
+            progress: Some(&progress),
+        };
+        Mesh::load_with(path, &options).map_err(|e| match e {
+            vps::mesh::MeshError::TooLarge { kept_bytes, limit } => anyhow::anyhow!(
+                "memory limit too small: the mesh needs more than the {} this run may use for it ({} with the next \
+                 vertex or triangle)",
+                human_bytes(limit),
+                human_bytes(kept_bytes)
+            ),
+            e => e.into(),
+        })?
+    };
+    pb.finish_and_clear();
+    // A scene is assembled from its meshes before it can be counted.
+    if let Some(limit) = limit.filter(|&l| mesh.approx_bytes() > l) {
+        bail!(
+            "memory limit too small: the mesh alone needs {} in memory, more than the {} this run may use for it",
+            human_bytes(mesh.approx_bytes()),
+            human_bytes(limit)
+        );
+    }
+    if mesh.degenerate_skipped > 0 {
+        errln!("note: skipped {} degenerate triangles", mesh.degenerate_skipped);
+    }
+    Ok(mesh)
+}
+
+/// Whether `path` starts like a pointshell (.vps) file; `vps info` and `vps verify` take both kinds.
+pub fn is_pointshell(path: &Path) -> bool {
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok()
+        && magic == PS_MAGIC
+}
+
+/// A voxmap file, read through its header.
+pub fn open_voxmap(path: &Path) -> Result<VoxmapFile> {
+    VoxmapFile::open(path).with_context(|| format!("cannot open voxmap {}", path.display()))
+}
+
+/// A voxmap for haptic queries; a pointshell given in its place is named as the mix-up it is.
+pub fn open_cached_voxmap(path: &Path) -> Result<CachedVoxmap> {
+    if is_pointshell(path) {
+        bail!(
+            "{} is a pointshell (.vps), not a voxmap: give the voxmap first, then the pointshell",
+            path.display()
+        );
+    }
+    CachedVoxmap::open(path).with_context(|| format!("cannot open voxmap {}", path.display()))
+}
+
+/// A pointshell file.
+pub fn open_pointshell(path: &Path) -> Result<PointshellFile> {
+    PointshellFile::open(path).with_context(|| format!("cannot open pointshell {}", path.display()))
+}
