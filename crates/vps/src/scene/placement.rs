@@ -184,4 +184,16 @@ mod tests {
         assert_ne!(at(q), p);
         assert!((at(q) - q * p).length() < 1e-15);
     }
+
+    /// At scale 1 a placement moves points as its pose does, to within rounding: only the
+    /// snapped matrix tells them apart.
+    #[test]
+    fn at_scale_one_a_placement_is_its_pose() {
+        let pose = Pose::new([1.0, -2.0, 3.5], [0.9, 0.1, -0.3, 0.2]).unwrap();
+        let placement = Placement { pose, scale: 1.0 };
+        for p in [DVec3::ZERO, DVec3::new(1.25, -2.5, 3.0), DVec3::splat(-7.0)] {
+            assert!(close(placement.apply(p), pose.transform_point(p)), "{p}");
+        }
+        assert_eq!(Placement::default().pose, Pose::IDENTITY);
+    }
 }
