@@ -2,7 +2,7 @@
 //! an error, never panic, and never touch the filesystem (the base directory does not exist;
 //! only `Scene::to_mesh` reads files). A scene it returns has between one and `MAX_ENTRIES`
 //! entries, each with a name, a path under the base directory (or absolute), and a usable
-//! transform; an error that names a place names a line of the text.
+//! placement; an error that names a place names a line of the text.
 #![no_main]
 
 use std::path::Path;
@@ -23,14 +23,15 @@ fuzz_target!(|data: &[u8]| {
                 assert!(!e.name.is_empty());
                 assert!(e.path.starts_with(BASE) || e.path.is_absolute(), "{:?}", e.path);
                 assert!(e.line >= 1 && e.line <= lines, "line {} of {lines}", e.line);
-                let t = e.transform;
-                assert!(t.translation.is_finite());
+                let t = e.placement;
+                let (translation, rotation) = (t.pose.translation, t.pose.rotation);
+                assert!(translation.is_finite());
                 assert!(t.scale.is_finite() && t.scale > 0.0);
-                assert!(t.rotation.is_finite());
-                assert!((t.rotation.length() - 1.0).abs() < 1e-12, "{:?}", t.rotation);
+                assert!(rotation.is_finite());
+                assert!((rotation.length() - 1.0).abs() < 1e-12, "{:?}", rotation);
                 // A point near the origin lands somewhere finite unless the numbers are huge.
-                if t.scale < 1e300 && t.translation.abs().max_element() < 1e300 {
-                    assert!(t.apply(t.translation.signum()).is_finite());
+                if t.scale < 1e300 && translation.abs().max_element() < 1e300 {
+                    assert!(t.apply(translation.signum()).is_finite());
                 }
             }
         }

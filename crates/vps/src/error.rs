@@ -2,9 +2,10 @@
 //! converts into [`Error`] with `?`, so a caller who voxelizes, writes and queries handles one.
 
 use crate::generate::GenerateError;
+use crate::geometry::PoseError;
 use crate::grid::GridError;
 use crate::haptics::trajectory::TrajectoryError;
-use crate::haptics::{HapticsError, PoseError};
+use crate::haptics::HapticsError;
 use crate::mesh::MeshError;
 use crate::scene::SceneError;
 use crate::storage::StorageError;

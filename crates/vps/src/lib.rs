@@ -2,7 +2,8 @@
 //! sparse, memory-mapped and compressed.
 //!
 //! The rooms of the house:
-//! - [`geometry`]: kernels (triangle–box SAT) that know nothing of grids or files;
+//! - [`geometry`]: kernels (triangle–box SAT) that know nothing of grids or files, and the rigid
+//!   [`Pose`] that scenes and haptics share;
 //! - [`grid`]: where voxels and bricks sit in the world;
 //! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
 //! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ files or built in code;
@@ -38,8 +39,9 @@ pub mod voxmap;
 pub use error::{Error, Result};
 pub use generate::pointshell::pointshell;
 pub use generate::{voxelize, Fill, VoxelizeParams};
+pub use geometry::Pose;
 pub use grid::Grid;
-pub use haptics::{contact, CachedVoxmap, Contact, ContactParams, Pose};
+pub use haptics::{contact, CachedVoxmap, Contact, ContactParams};
 pub use mesh::{LoadOptions, Mesh, Triangle};
 pub use pointshell::{Pointshell, PointshellData};
 pub use scene::Scene;

@@ -12,12 +12,12 @@
 //!   (Barbič & James 2007).
 
 mod cache;
-mod pose;
 mod query;
 pub mod trajectory;
 
 pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};
-pub use pose::{Pose, PoseError};
+// The query takes a pose; callers name it here or as `vps::Pose`.
+pub use crate::geometry::{Pose, PoseError};
 pub use query::{contact, contact_brute_force, Contact, ContactParams, BLOCK_POINTS};
 
 use crate::storage::StorageError;

@@ -14,8 +14,8 @@ use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::cache::{CachedVoxmap, Cursor};
-use super::pose::Pose;
 use super::HapticsError;
+use crate::geometry::Pose;
 use crate::pointshell::tree::SphereNode;
 use crate::pointshell::PointshellData;
 use crate::storage::StorageError;

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DQuat, DVec3};
 
-use super::pose::{Pose, PoseError};
+use crate::geometry::{Pose, PoseError};
 use crate::pointshell::PointshellData;
 use crate::storage::StorageError;
 

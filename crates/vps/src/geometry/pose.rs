@@ -1,4 +1,6 @@
-//! Rigid poses: where the pointshell's frame sits in the voxmap's world frame.
+//! Rigid poses: where one frame sits in another. The haptic query places the pointshell's frame
+//! in the voxmap's world frame with one; a scene entry places its mesh with one (and a uniform
+//! scale, `scene::Placement`).
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -36,11 +38,12 @@ pub enum PoseError {
     ZeroQuaternion([f64; 4]),
 }
 
-/// A rigid transform from the pointshell's frame to the voxmap's world frame:
-/// `x_world = rotation · x_pointshell + translation`.
+/// A rigid transform from a local frame to the world frame: `x_world = rotation · x_local +
+/// translation`. In a contact query the local frame is the pointshell's and the world frame the
+/// voxmap's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose {
-    /// Where the pointshell frame's origin lands.
+    /// Where the local frame's origin lands.
     pub translation: DVec3,
     /// The rotation, a unit quaternion.
     pub rotation: DQuat,
@@ -122,7 +125,7 @@ impl Pose {
         DMat3::from_quat(self.rotation)
     }
 
-    /// A point of the pointshell's frame in the world frame.
+    /// A point of the local frame in the world frame.
     pub fn transform_point(&self, p: DVec3) -> DVec3 {
         self.rotation * p + self.translation
     }
