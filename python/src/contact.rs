@@ -4,7 +4,8 @@ use std::time::Duration;
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vps::haptics::{ContactParams, HapticsError, Pose};
+use vps::haptics::HapticsError;
+use vps::{ContactParams, Pose};
 
 use crate::errors::{OrRaise, ToPy};
 use crate::pointshell::{PyPointshell, ShellData};
@@ -104,7 +105,7 @@ fn query(
     params: &ContactParams,
 ) -> Result<vps::haptics::Contact, HapticsError> {
     match &shell.data {
-        ShellData::Memory(m) => vps::haptics::contact(&voxmap.data, &m.shell, pose, params),
-        ShellData::File(f) => vps::haptics::contact(&voxmap.data, f, pose, params),
+        ShellData::Memory(m) => vps::contact(&voxmap.data, m, pose, params),
+        ShellData::File(f) => vps::contact(&voxmap.data, f, pose, params),
     }
 }

@@ -31,6 +31,6 @@ fn _vps(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pointshell::pointshell, m)?)?;
     m.add_function(wrap_pyfunction!(contact::contact, m)?)?;
     m.add("MAX_LAYERS", MAX_LAYERS)?;
-    m.add("LEAF_SIZE", vps::pointshell::tree::LEAF_SIZE)?;
+    m.add("LEAF_SIZE", vps::LEAF_SIZE)?;
     Ok(())
 }

@@ -6,7 +6,7 @@ use glam::DVec3;
 use numpy::{AllowTypeChange, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vps::mesh::{Mesh, Triangle};
+use vps::{Mesh, Triangle};
 
 use crate::arrays::{rows, vec3_array};
 use crate::errors::OrRaise;

@@ -8,25 +8,17 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vps::generate::GenerateError;
-use vps::pointshell::shell::Pointshell;
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
+use vps::{write_pointshell, Pointshell, PointshellFile};
 
 use crate::arrays::vec3_array;
 use crate::errors::OrRaise;
 use crate::mesh::PyMesh;
 use crate::voxmap::{voxelize, PyVoxmap};
 
-/// A pointshell in memory and its sphere tree's leaf size.
-pub(crate) struct ShellInMemory {
-    /// The pointshell.
-    pub(crate) shell: Pointshell,
-    leaf_size: usize,
-}
-
 /// Where a pointshell's data are: in memory or mapped from its file.
 pub(crate) enum ShellData {
     /// Made here.
-    Memory(ShellInMemory),
+    Memory(Pointshell),
     /// Mapped from a `.vps` file.
     File(PointshellFile),
 }
@@ -42,7 +34,7 @@ impl PyPointshell {
     /// Origin, points relative to it, and normals.
     fn parts(&self) -> (DVec3, &[glam::Vec3], &[glam::Vec3]) {
         match &self.data {
-            ShellData::Memory(m) => (m.shell.origin, &m.shell.points, &m.shell.normals),
+            ShellData::Memory(m) => (m.origin, &m.points, &m.normals),
             ShellData::File(f) => (f.header().origin, f.points(), f.normals()),
         }
     }
@@ -77,7 +69,7 @@ impl PyPointshell {
     #[getter]
     fn voxel_size(&self) -> f64 {
         match &self.data {
-            ShellData::Memory(m) => m.shell.voxel_size,
+            ShellData::Memory(m) => m.voxel_size,
             ShellData::File(f) => f.header().voxel_size,
         }
     }
@@ -96,7 +88,7 @@ impl PyPointshell {
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = match &self.data {
-            ShellData::Memory(m) => m.shell.stats,
+            ShellData::Memory(m) => m.stats,
             ShellData::File(f) => f.header().stats,
         };
         let d = PyDict::new(py);
@@ -111,8 +103,8 @@ impl PyPointshell {
     /// Write the pointshell to a `.vps` file, atomically. Returns the file's length in bytes.
     fn write(&self, py: Python<'_>, path: PathBuf) -> PyResult<u64> {
         py.detach(|| match &self.data {
-            ShellData::Memory(m) => write_pointshell(&path, &m.shell, m.leaf_size),
-            ShellData::File(f) => write_pointshell(&path, &f.to_pointshell(), f.header().leaf_size as usize),
+            ShellData::Memory(m) => write_pointshell(&path, m),
+            ShellData::File(f) => write_pointshell(&path, &f.to_pointshell()),
         })
         .or_raise()
     }
@@ -134,7 +126,7 @@ impl PyPointshell {
 /// voxmap made here at `voxel_size` with `layers`. Sphere-tree leaves hold at most
 /// `leaf_size` points.
 #[pyfunction]
-#[pyo3(signature = (mesh, voxmap = None, *, voxel_size = None, layers = 5, leaf_size = vps::pointshell::tree::LEAF_SIZE))]
+#[pyo3(signature = (mesh, voxmap = None, *, voxel_size = None, layers = 5, leaf_size = vps::LEAF_SIZE))]
 pub(crate) fn pointshell(
     py: Python<'_>,
     mesh: &PyMesh,
@@ -158,10 +150,10 @@ pub(crate) fn pointshell(
     let (shell, _) = py
         .detach(|| -> Result<_, GenerateError> {
             let vm = voxmap.in_memory()?;
-            vps::generate::pointshell::pointshell(&mesh.mesh, &vm, leaf_size)
+            vps::pointshell(&mesh.mesh, &vm, leaf_size)
         })
         .or_raise()?;
     Ok(PyPointshell {
-        data: ShellData::Memory(ShellInMemory { shell, leaf_size }),
+        data: ShellData::Memory(shell),
     })
 }

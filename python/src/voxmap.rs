@@ -8,11 +8,12 @@ use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vps::generate::{Fill, GenerateError, Navigation, VoxelizeParams, VoxelizeReport};
-use vps::haptics::{CachedVoxmap, VoxmapSource};
+use vps::generate::{GenerateError, Navigation, VoxelizeReport};
+use vps::haptics::VoxmapSource;
 use vps::storage::slice::slice_index_at;
-use vps::storage::{write_voxmap, StorageError};
-use vps::voxmap::{Voxmap, MAX_LAYERS};
+use vps::storage::StorageError;
+use vps::voxmap::MAX_LAYERS;
+use vps::{write_voxmap, CachedVoxmap, Fill, VoxelizeParams, Voxmap};
 
 use crate::arrays::{axis_of, rows};
 use crate::errors::{OrRaise, ToPy};
@@ -85,12 +86,7 @@ impl PyVoxmap {
             (Some(w), None) => slice_index_at(self.grid(), a, w).or_raise()?,
             _ => return Err(PyValueError::new_err("give exactly one of at= and index=")),
         };
-        let s = py
-            .detach(|| match self.data.source() {
-                VoxmapSource::Memory(v) => v.slice(a, k),
-                VoxmapSource::File(f) => f.slice(a, k),
-            })
-            .or_raise()?;
+        let s = py.detach(|| self.data.slice(a, k)).or_raise()?;
         let array =
             Array2::from_shape_vec((s.height as usize, s.width as usize), s.values).expect("sized by the slice");
         Ok(array.into_pyarray(py))
@@ -133,20 +129,14 @@ impl PyVoxmap {
     /// The `.vxm` file this voxmap was opened from, or `None` for one in memory.
     #[getter]
     fn path(&self) -> Option<PathBuf> {
-        match self.data.source() {
-            VoxmapSource::Memory(_) => None,
-            VoxmapSource::File(f) => Some(f.path().to_path_buf()),
-        }
+        self.data.file().map(|f| f.path().to_path_buf())
     }
 
     /// Voxel and brick counts: `surface_voxels`, `inner_voxels`, `bricks_stored`,
     /// `inside_tile_bricks`.
     #[getter]
     fn counts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let c = match self.data.source() {
-            VoxmapSource::Memory(v) => v.counts(),
-            VoxmapSource::File(f) => f.header().counts,
-        };
+        let c = self.data.counts();
         let d = PyDict::new(py);
         d.set_item("surface_voxels", c.surface_voxels)?;
         d.set_item("inner_voxels", c.inner_voxels)?;
@@ -230,7 +220,7 @@ pub(crate) fn voxelize(
         navigation,
         fill,
     };
-    let (voxmap, report) = py.detach(|| vps::generate::voxelize(&mesh.mesh, &params)).or_raise()?;
+    let (voxmap, report) = py.detach(|| vps::voxelize(&mesh.mesh, &params)).or_raise()?;
     Ok(PyVoxmap {
         data: CachedVoxmap::in_memory(voxmap),
         report: Some(report),

@@ -17,8 +17,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::time::Duration;
 
-use vps::haptics::{contact, CachedVoxmap, ContactParams, HapticsError, Pose};
-use vps::storage::pointshell::PointshellFile;
+use vps::haptics::HapticsError;
+use vps::{contact, CachedVoxmap, ContactParams, PointshellFile, Pose};
 
 /// Success.
 pub const VPS_OK: c_int = 0;

@@ -6,8 +6,8 @@ use std::time::Duration;
 use anyhow::{bail, Result};
 use clap::ValueEnum;
 
-use vps::generate::{Navigation, VoxelizeParams};
-use vps::haptics::ContactParams;
+use vps::generate::Navigation;
+use vps::{ContactParams, VoxelizeParams};
 
 /// `--navigation`: how candidate voxels are chosen in each triangle's bounding box.
 #[derive(Clone, Copy, Debug, ValueEnum)]

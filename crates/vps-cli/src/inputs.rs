@@ -8,10 +8,8 @@ use std::time::Duration;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use vps::haptics::CachedVoxmap;
-use vps::mesh::Mesh;
-use vps::storage::pointshell::{PointshellFile, PS_MAGIC};
-use vps::storage::VoxmapFile;
+use vps::storage::pointshell::PS_MAGIC;
+use vps::{CachedVoxmap, Mesh, PointshellFile, VoxmapFile};
 
 use crate::memory::human_bytes;
 

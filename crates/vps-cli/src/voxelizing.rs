@@ -7,10 +7,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use serde_json::json;
 
-use vps::generate::{voxelize_with, Fill, VoxelizeParams, VoxelizeReport};
-use vps::mesh::Mesh;
-use vps::storage::{write_voxmap, WriteReport};
-use vps::voxmap::Voxmap;
+use vps::generate::{voxelize_with, VoxelizeReport};
+use vps::storage::WriteReport;
+use vps::{write_voxmap, Fill, Mesh, VoxelizeParams, Voxmap};
 
 use crate::interrupt;
 use crate::memory::peak_rss_bytes;

@@ -286,14 +286,14 @@ fn info_and_verify_refuse_a_header_beyond_the_limits() {
     use vps::storage::format::{RawHeader, HEADER_BYTES};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("huge.vxm");
-    let mesh = vps::mesh::Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 5.0, 12, 24)).unwrap();
+    let mesh = vps::Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 5.0, 12, 24)).unwrap();
     let params = vps::generate::VoxelizeParams {
         voxel_size: 0.5,
         layers: 3,
         ..Default::default()
     };
-    let (vm, _) = vps::generate::voxelize(&mesh, &params).unwrap();
-    vps::storage::write_voxmap(&path, &vm).unwrap();
+    let (vm, _) = vps::voxelize(&mesh, &params).unwrap();
+    vps::write_voxmap(&path, &vm).unwrap();
     let good = std::fs::read(&path).unwrap();
     let forged = |dims: [u32; 3]| {
         let mut h: RawHeader = bytemuck::pod_read_unaligned(&good[..HEADER_BYTES]);

@@ -45,9 +45,9 @@ fn fixture() -> Fixture {
     write_voxmap(&vxm, &vm).unwrap();
     let small = Mesh::from_triangles("probe", shapes::sphere(DVec3::ZERO, 3.0, 12, 24)).unwrap();
     let (svm, _) = voxelize(&small, &params).unwrap();
-    let (shell, _) = vps::generate::pointshell::pointshell(&small, &svm, 16).unwrap();
+    let (shell, _) = vps::pointshell(&small, &svm, 16).unwrap();
     let vps = dir.path().join("probe.vps");
-    write_pointshell(&vps, &shell, 16).unwrap();
+    write_pointshell(&vps, &shell).unwrap();
     Fixture { dir, vxm, vps }
 }
 

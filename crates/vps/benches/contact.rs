@@ -59,7 +59,7 @@ fn bench_contact(c: &mut Criterion) {
         .unwrap();
         let (shell, _) = pointshell(&ball, &bvm, LEAF_SIZE).unwrap();
         let vps_path = dir.path().join(format!("ball{target}.vps"));
-        write_pointshell(&vps_path, &shell, LEAF_SIZE).unwrap();
+        write_pointshell(&vps_path, &shell).unwrap();
         let shell = PointshellFile::open(&vps_path).unwrap();
         let n = shell.points().len();
         let label = format!("{}k", n / 1000);

@@ -142,7 +142,7 @@ fn out_of_core(c: &mut Criterion) {
         g.bench_function(format!("{fill:?}/in_memory"), |b| {
             b.iter(|| {
                 let (vm, _) = voxelize(&mesh, &params).unwrap();
-                black_box(vps::storage::write_voxmap(&out, &vm).unwrap())
+                black_box(vps::write_voxmap(&out, &vm).unwrap())
             })
         });
         for planes in [None, Some(4)] {

@@ -15,12 +15,12 @@ fn main() -> vps::Result<()> {
 
     let (voxmap, report) = vps::voxelize(&block, &VoxelizeParams::new(0.1, 5))?;
     let (ball_voxels, _) = vps::voxelize(&ball, &VoxelizeParams::new(0.05, 1))?;
-    let (shell, _) = vps::pointshell(&ball, &ball_voxels, vps::pointshell::tree::LEAF_SIZE)?;
+    let (shell, _) = vps::pointshell(&ball, &ball_voxels, vps::LEAF_SIZE)?;
     println!("{} surface voxels, {} points", report.surface_voxels, shell.len());
 
     let (vxm, vps_path) = (out.join("block.vxm"), out.join("ball.vps"));
     vps::write_voxmap(&vxm, &voxmap)?;
-    vps::write_pointshell(&vps_path, &shell, vps::pointshell::tree::LEAF_SIZE)?;
+    vps::write_pointshell(&vps_path, &shell)?;
 
     // The ball pressed 0.2 into the block's top face: the force pushes it up.
     let pose = Pose::new([0.0, 0.0, 0.8], [1.0, 0.0, 0.0, 0.0])?;

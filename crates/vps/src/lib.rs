@@ -43,6 +43,7 @@ pub use geometry::Pose;
 pub use grid::Grid;
 pub use haptics::{contact, CachedVoxmap, Contact, ContactParams};
 pub use mesh::{LoadOptions, Mesh, Triangle};
+pub use pointshell::tree::LEAF_SIZE;
 pub use pointshell::{Pointshell, PointshellData};
 pub use scene::Scene;
 pub use storage::pointshell::{write_pointshell, PointshellFile};

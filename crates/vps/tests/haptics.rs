@@ -43,7 +43,7 @@ fn shell_file(dir: &std::path::Path, tris: Vec<Triangle>, voxel_size: f64) -> Po
     let (vm, _) = voxelize(&mesh, &params).unwrap();
     let (shell, _) = pointshell(&mesh, &vm, LEAF_SIZE).unwrap();
     let path = dir.join("moving.vps");
-    write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+    write_pointshell(&path, &shell).unwrap();
     PointshellFile::open(&path).unwrap()
 }
 
@@ -498,7 +498,7 @@ fn cursor_look_ups_agree_with_the_file() {
     // every value must equal the file's own.
     let p = fixture();
     let path = p.voxmap.file().unwrap().path().to_path_buf();
-    let small = CachedVoxmap::with_capacity(vps::storage::VoxmapFile::open(&path).unwrap(), 64 * 512);
+    let small = CachedVoxmap::with_capacity(vps::VoxmapFile::open(&path).unwrap(), 64 * 512);
     let file = small.file().unwrap();
     let dims = file.grid().dims;
     let mut rng = shapes::SplitMix(11);

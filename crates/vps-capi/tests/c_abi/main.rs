@@ -193,7 +193,7 @@ pub(crate) fn write_files(vm: &Voxmap, shell: &Pointshell) -> Files {
     let dir = tempfile::tempdir().unwrap();
     let (vxm, vps) = (dir.path().join("object.vxm"), dir.path().join("probe.vps"));
     write_voxmap(&vxm, vm).unwrap();
-    write_pointshell(&vps, shell, LEAF_SIZE).unwrap();
+    write_pointshell(&vps, shell).unwrap();
     Files { dir, vxm, vps }
 }
 

@@ -98,7 +98,7 @@ fn c_readers_keep_their_mapping_across_a_rename() {
     let old_vxm = files.dir.path().join("old.vxm");
     let old_vps = files.dir.path().join("old.vps");
     write_voxmap(&old_vxm, &o.box_vm).unwrap();
-    write_pointshell(&old_vps, &o.ball_shell, LEAF_SIZE).unwrap();
+    write_pointshell(&old_vps, &o.ball_shell).unwrap();
 
     let poses = poses(3, 160);
     let (before, after) = poses.split_at(poses.len() / 2);
@@ -121,7 +121,7 @@ fn c_readers_keep_their_mapping_across_a_rename() {
     #[cfg(unix)]
     let inodes = (inode(&files.vxm), inode(&files.vps));
     write_voxmap(&files.vxm, &o.ball_vm).unwrap();
-    write_pointshell(&files.vps, &o.box_shell, LEAF_SIZE).unwrap();
+    write_pointshell(&files.vps, &o.box_shell).unwrap();
     #[cfg(unix)]
     assert!(
         inode(&files.vxm) != inodes.0 && inode(&files.vps) != inodes.1,

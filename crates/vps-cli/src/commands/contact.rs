@@ -10,7 +10,8 @@ use clap::Args;
 use glam::DVec3;
 use serde_json::{json, Value};
 
-use vps::haptics::{contact, contact_brute_force, Pose};
+use vps::haptics::contact_brute_force;
+use vps::{contact, Pose};
 
 use crate::args::contact_params;
 use crate::inputs::{open_cached_voxmap, open_pointshell};

@@ -9,9 +9,8 @@ use clap::Args;
 use glam::DVec3;
 
 use vps::generate::Navigation;
-use vps::haptics::{contact, trajectory::contact_sweep, CachedVoxmap, ContactParams};
-use vps::mesh::Mesh;
-use vps::storage::pointshell::{write_pointshell, PointshellFile};
+use vps::haptics::trajectory::contact_sweep;
+use vps::{contact, write_pointshell, CachedVoxmap, ContactParams, Mesh, PointshellFile};
 
 use crate::args::voxelize_params;
 use crate::commands::slice::{write_slice, Axis};
@@ -68,10 +67,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
         outln!("  value at ({}, {}, {}) = {}", p.x, p.y, p.z, f.value_at(p)?);
     }
     let t = Instant::now();
-    let leaf = vps::pointshell::tree::LEAF_SIZE;
-    let (shell, _) = vps::generate::pointshell::pointshell(&mesh, &vm, leaf)?;
+    let (shell, _) = vps::pointshell(&mesh, &vm, vps::LEAF_SIZE)?;
     let ps_path = out_dir.join("demo.vps");
-    let bytes = write_pointshell(&ps_path, &shell, leaf)?;
+    let bytes = write_pointshell(&ps_path, &shell)?;
     let ts = shell.tree.stats();
     outln!(
         "pointshell {}: {} points ({} interior, {} recovered), tree of {} nodes, depth {}, {bytes} bytes, {:.3} s",
@@ -90,11 +88,10 @@ pub fn run(a: DemoArgs) -> Result<()> {
 fn demo_haptics(out_dir: &Path, vxm: &Path, voxel_size: f64) -> Result<()> {
     let ball = Mesh::from_triangles("probe ball", vps::shapes::sphere(DVec3::ZERO, 6.0, 24, 48))?;
     let params = voxelize_params(voxel_size, 5, Navigation::Auto)?;
-    let (bvm, _) = vps::generate::voxelize(&ball, &params)?;
-    let leaf = vps::pointshell::tree::LEAF_SIZE;
-    let (probe, _) = vps::generate::pointshell::pointshell(&ball, &bvm, leaf)?;
+    let (bvm, _) = vps::voxelize(&ball, &params)?;
+    let (probe, _) = vps::pointshell(&ball, &bvm, vps::LEAF_SIZE)?;
     let probe_path = out_dir.join("demo_probe.vps");
-    write_pointshell(&probe_path, &probe, leaf)?;
+    write_pointshell(&probe_path, &probe)?;
     let voxmap = CachedVoxmap::open(vxm)?;
     let shell = PointshellFile::open(&probe_path)?;
     let poses = contact_sweep(&voxmap, &shell, 500, None)?;

@@ -10,8 +10,9 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use vps::contact;
+use vps::haptics::contact_brute_force;
 use vps::haptics::trajectory::{contact_sweep, read_trajectory, sweep, DEFAULT_SWEEP_STEPS};
-use vps::haptics::{contact, contact_brute_force};
 
 use crate::args::contact_params;
 use crate::inputs::{open_cached_voxmap, open_pointshell};

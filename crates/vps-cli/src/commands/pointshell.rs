@@ -9,7 +9,7 @@ use clap::Args;
 use serde_json::json;
 
 use vps::generate::{budget, voxelize_with, Navigation};
-use vps::storage::pointshell::write_pointshell;
+use vps::write_pointshell;
 
 use crate::args::voxelize_params;
 use crate::inputs::{load_mesh, open_voxmap};
@@ -35,7 +35,7 @@ pub struct PointshellArgs {
     #[arg(long, default_value_t = 5)]
     layers: u32,
     /// Largest number of points in a sphere-tree leaf.
-    #[arg(long, default_value_t = vps::pointshell::tree::LEAF_SIZE)]
+    #[arg(long, default_value_t = vps::LEAF_SIZE)]
     leaf_size: usize,
     /// Print the summary as one JSON object.
     #[arg(long)]
@@ -84,10 +84,10 @@ pub fn run(a: PointshellArgs) -> Result<()> {
     let t_voxmap = start.elapsed().as_secs_f64();
     pb.set_message("pointshell: projecting, normals, tree");
     let t = Instant::now();
-    let (shell, report) = vps::generate::pointshell::pointshell(&mesh, &vm, a.leaf_size)?;
+    let (shell, report) = vps::pointshell(&mesh, &vm, a.leaf_size)?;
     let t_shell = t.elapsed().as_secs_f64();
     pb.set_message(format!("writing {}", output.display()));
-    let bytes = write_pointshell(output, &shell, a.leaf_size)?;
+    let bytes = write_pointshell(output, &shell)?;
     pb.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
     let ts = shell.tree.stats();

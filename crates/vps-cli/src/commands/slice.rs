@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 
-use vps::storage::VoxmapFile;
+use vps::VoxmapFile;
 
 use crate::inputs::open_voxmap;
 use crate::interrupt;

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 
-use vps::generate::{budget, Fill};
+use vps::generate::budget;
+use vps::Fill;
 
 use crate::args::{parse_bytes, voxelize_params, NavArg};
 use crate::inputs::load_mesh;

@@ -19,8 +19,9 @@ use glam::DVec3;
 use rustc_hash::FxHashMap;
 
 use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
+use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
-use crate::voxmap::{outside_value, BrickSlot, BrickValues, Voxmap};
+use crate::voxmap::{outside_value, BrickSlot, BrickValues, Voxmap, VoxmapCounts};
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -180,6 +181,23 @@ impl CachedVoxmap {
         match &self.source {
             Source::File(f) => f.layers(),
             Source::Memory(v) => v.layers(),
+        }
+    }
+
+    /// The voxmap's voxel counts.
+    pub fn counts(&self) -> VoxmapCounts {
+        match &self.source {
+            Source::File(f) => f.header().counts,
+            Source::Memory(v) => v.counts(),
+        }
+    }
+
+    /// The slice normal to `axis` (0, 1, 2 for x, y, z) at voxel `index` along it, read from
+    /// the voxmap or the file directly (not through the cache: a slice touches each brick once).
+    pub fn slice(&self, axis: usize, index: u32) -> Result<Slice, SliceError> {
+        match &self.source {
+            Source::File(f) => f.slice(axis, index),
+            Source::Memory(v) => v.slice(axis, index),
         }
     }
 

@@ -31,7 +31,7 @@ pub fn small() -> (Pointshell, Vec<u8>) {
     let shell = ball(1.8, 0.55);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("small.vps");
-    write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+    write_pointshell(&path, &shell).unwrap();
     (shell, std::fs::read(&path).unwrap())
 }
 

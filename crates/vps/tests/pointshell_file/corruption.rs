@@ -236,7 +236,7 @@ fn a_corrupt_tree_behind_valid_checksums_is_named() {
     let lone = Pointshell { tree, ..one };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("lone.vps");
-    write_pointshell(&path, &lone, 100_000).unwrap();
+    write_pointshell(&path, &lone).unwrap();
     let f = PointshellFile::open(&path).unwrap();
     assert_eq!(
         (f.header().nodes, f.header().tree_depth, f.header().leaf_size),
@@ -249,7 +249,7 @@ fn a_corrupt_tree_behind_valid_checksums_is_named() {
     none.tree.nodes.clear();
     // The writer refuses what the reader would (`header_semantics_are_checked_on_open` forges
     // such a file).
-    let e = write_pointshell(&path, &none, 16).unwrap_err();
+    let e = write_pointshell(&path, &none).unwrap_err();
     assert!(
         matches!(&e, StorageError::InvalidInput { what, .. } if what.contains("nodes")),
         "{e}"

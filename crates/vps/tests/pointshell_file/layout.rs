@@ -9,7 +9,7 @@ fn version_1_files_still_open() {
     let dir = tempfile::tempdir().unwrap();
     for (name, shell) in [("small", small().0), ("torus", shell_of(&torus, 0.3, LEAF_SIZE))] {
         let path = dir.path().join("v2.vps");
-        write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+        write_pointshell(&path, &shell).unwrap();
         let v2 = std::fs::read(&path).unwrap();
         let v1 = to_version_1(&v2);
         assert_eq!(v1.len(), v2.len(), "{name}: the sections lie alike");
@@ -160,7 +160,10 @@ fn round_trips_with_the_header_filled_in() {
                 voxel_size: 0.25,
                 points: vec![],
                 normals: vec![],
-                tree: SphereTree::default(),
+                tree: SphereTree {
+                    nodes: vec![],
+                    leaf_size: LEAF_SIZE as u32,
+                },
                 stats: PointshellStats::default(),
             },
         ),
@@ -168,7 +171,7 @@ fn round_trips_with_the_header_filled_in() {
     let dir = tempfile::tempdir().unwrap();
     for (name, shell) in cases {
         let path = dir.path().join(format!("{name}.vps"));
-        let len = write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+        let len = write_pointshell(&path, &shell).unwrap();
         assert_eq!(len, std::fs::metadata(&path).unwrap().len(), "{name}");
         let f = PointshellFile::open(&path).unwrap();
         assert_eq!(f.path(), path);
@@ -179,7 +182,7 @@ fn round_trips_with_the_header_filled_in() {
         assert_eq!(h.points, shell.len() as u64, "{name}");
         assert_eq!(h.nodes, shell.tree.nodes.len() as u64, "{name}");
         assert_eq!(h.tree_depth, tree.depth, "{name}");
-        assert_eq!(h.leaf_size, LEAF_SIZE as u32);
+        assert_eq!(h.leaf_size, LEAF_SIZE as u32, "{name}: the tree's leaf size");
         assert_eq!(h.stats, shell.stats, "{name}");
         assert_eq!(
             h.stats.interior_points + h.stats.boundary_points_recovered,
@@ -225,9 +228,9 @@ fn writes_are_atomic() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("shell.vps");
     let (a, b) = (ball(1.8, 0.5), ball(2.5, 0.5));
-    write_pointshell(&path, &a, LEAF_SIZE).unwrap();
+    write_pointshell(&path, &a).unwrap();
     let old = PointshellFile::open(&path).unwrap();
-    write_pointshell(&path, &b, LEAF_SIZE).unwrap();
+    write_pointshell(&path, &b).unwrap();
     assert_eq!(names(dir.path()), ["shell.vps"], "a temporary file was left behind");
     // A reader of the old file keeps its mapping; a new reader sees the new file.
     assert_eq!(old.to_pointshell(), a);
@@ -236,11 +239,11 @@ fn writes_are_atomic() {
     let before = std::fs::read(&path).unwrap();
 
     // Writes that fail leave the directory as it was.
-    let e = write_pointshell(dir.path().join("missing").join("shell.vps"), &a, LEAF_SIZE).unwrap_err();
+    let e = write_pointshell(dir.path().join("missing").join("shell.vps"), &a).unwrap_err();
     assert!(matches!(e, StorageError::Io { .. }), "{e}");
     let mut bad = a.clone();
     bad.normals.pop();
-    let e = write_pointshell(&path, &bad, LEAF_SIZE).unwrap_err();
+    let e = write_pointshell(&path, &bad).unwrap_err();
     assert!(matches!(e, StorageError::InvalidInput { .. }), "{e}");
     let e = write_ply(&path, bad.origin, &bad.points, &bad.normals).unwrap_err();
     assert!(matches!(e, StorageError::InvalidInput { .. }), "{e}");
@@ -260,7 +263,7 @@ fn ply_export_parses() {
     let dir = tempfile::tempdir().unwrap();
     let vps_path = dir.path().join("ball.vps");
     let shell = ball(3.0, 0.5);
-    write_pointshell(&vps_path, &shell, LEAF_SIZE).unwrap();
+    write_pointshell(&vps_path, &shell).unwrap();
     let f = PointshellFile::open(&vps_path).unwrap();
     let ply = dir.path().join("ball.ply");
     let len = write_ply(&ply, f.header().origin, f.points(), f.normals()).unwrap();
@@ -297,7 +300,7 @@ fn write_fuzz_seeds() {
     let dir = tempfile::tempdir().unwrap();
     for (name, shell) in [("small", small().0), ("tiny", tiny), ("empty", empty)] {
         let path = dir.path().join("seed.vps");
-        write_pointshell(&path, &shell, LEAF_SIZE).unwrap();
+        write_pointshell(&path, &shell).unwrap();
         let v2 = std::fs::read(&path).unwrap();
         for (version, bytes) in [("v1", to_version_1(&v2)), ("v2", v2)] {
             // Larger files only with mode 1, to keep the committed seeds (fuzz/seeds) small.

@@ -8,11 +8,8 @@ use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use serde_json::{json, Value};
 
-use vps::generate::{voxelize_with, Navigation, VoxelizeParams};
-use vps::grid::Grid;
-use vps::mesh::Mesh;
-use vps::storage::pointshell::write_pointshell;
-use vps::storage::write_voxmap;
+use vps::generate::{voxelize_with, Navigation};
+use vps::{write_pointshell, write_voxmap, Grid, Mesh, VoxelizeParams};
 
 /// What `--builtin` made.
 pub struct Built {
@@ -115,12 +112,10 @@ pub fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built>
     );
     let t = Instant::now();
     let (svm, _) = voxelize_with(&small, &builtin_params(v), &|_| {})?;
-    let leaf = vps::pointshell::tree::LEAF_SIZE;
-    let (shell, _) = vps::generate::pointshell::pointshell(&small, &svm, leaf)?;
+    let (shell, _) = vps::pointshell(&small, &svm, vps::LEAF_SIZE)?;
     drop(svm);
     let vps_path = dir.join("builtin_moving.vps");
-    let ps_bytes =
-        write_pointshell(&vps_path, &shell, leaf).with_context(|| format!("writing {}", vps_path.display()))?;
+    let ps_bytes = write_pointshell(&vps_path, &shell).with_context(|| format!("writing {}", vps_path.display()))?;
     let pointshell_seconds = t.elapsed().as_secs_f64();
     let info = json!({
         "static_sphere_radius": big_r,

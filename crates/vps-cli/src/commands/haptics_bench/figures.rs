@@ -5,8 +5,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use glam::DVec3;
 
-use vps::haptics::{CachedVoxmap, Contact, ContactParams, HapticsError, Pose};
-use vps::storage::pointshell::PointshellFile;
+use vps::haptics::HapticsError;
+use vps::{CachedVoxmap, Contact, ContactParams, PointshellFile, Pose};
 
 /// What one query leaves for the figures.
 #[derive(Clone, Copy, Debug)]

@@ -5,9 +5,9 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde_json::json;
 
-use vps::haptics::{CacheStats, CachedVoxmap, ContactParams};
-use vps::storage::pointshell::PointshellFile;
+use vps::haptics::CacheStats;
 use vps::storage::Header as VoxmapHeader;
+use vps::{CachedVoxmap, ContactParams, PointshellFile};
 
 use super::builtin::Built;
 use super::figures::{Figures, Sample};

@@ -11,9 +11,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use vps::generate::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
-use vps::generate::{Fill, GenerateError, VoxelizeParams};
-use vps::mesh::Mesh;
+use vps::generate::GenerateError;
 use vps::storage::directory_of;
+use vps::{Fill, Mesh, VoxelizeParams};
 
 use crate::inputs::load_mesh;
 use crate::interrupt;

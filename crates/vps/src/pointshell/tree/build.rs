@@ -49,8 +49,14 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
         points.par_iter().chain(normals).all(|v| v.is_finite()),
         "points and normals must be finite"
     );
+    // Fewer than 2³¹ points: a larger bound says nothing more.
+    let leaf_bound = leaf_size.min(u32::MAX as usize) as u32;
     if points.is_empty() {
-        return (SphereTree::default(), Vec::new());
+        let tree = SphereTree {
+            nodes: Vec::new(),
+            leaf_size: leaf_bound,
+        };
+        return (tree, Vec::new());
     }
     let mut items: Vec<Item> = points
         .par_iter()
@@ -67,7 +73,11 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
     };
     build_node(&mut items, cols, &shared, 0, 0, root, rest, 1);
     let order = items.par_iter().map(|it| it.id).collect();
-    (SphereTree { nodes }, order)
+    let tree = SphereTree {
+        nodes,
+        leaf_size: leaf_bound,
+    };
+    (tree, order)
 }
 
 /// Number of leaves of the subtree over `n >= 1` points, following the median split of

@@ -126,6 +126,9 @@ impl SphereNode {
 pub struct SphereTree {
     /// The nodes, root first; children of a node are adjacent and come after it.
     pub nodes: Vec<SphereNode>,
+    /// Most points a leaf may hold, as the tree was built (0 for the default tree of nothing).
+    /// Files store it, so a tree read back is the tree written.
+    pub leaf_size: u32,
 }
 
 /// Shape of a tree, from [`SphereTree::stats`].

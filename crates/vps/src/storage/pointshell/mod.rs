@@ -291,7 +291,10 @@ impl PointshellFile {
                 normals[i].to_array()
             )));
         }
-        let tree = SphereTree { nodes: nodes.to_vec() };
+        let tree = SphereTree {
+            nodes: nodes.to_vec(),
+            leaf_size: self.header.leaf_size,
+        };
         tree.validate(points, normals, self.header.leaf_size as usize)
             .map_err(|reason| corrupt(format!("sphere tree: {reason}")))?;
         let depth = nodes.iter().map(|n| n.depth).max().unwrap_or(0);
@@ -345,6 +348,7 @@ impl PointshellFile {
             normals: self.normals().to_vec(),
             tree: SphereTree {
                 nodes: self.nodes().to_vec(),
+                leaf_size: self.header.leaf_size,
             },
             stats: self.header.stats,
         }

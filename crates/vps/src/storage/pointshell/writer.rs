@@ -2,13 +2,13 @@
 
 use super::*;
 
-/// Write `shell` to `path` atomically (temporary file in the same directory, then rename).
-/// Returns the file's length.
+/// Write `shell` to `path` atomically (temporary file in the same directory, then rename),
+/// with its tree's leaf size. Returns the file's length.
 ///
 /// Refuses (`InvalidInput`) a shell whose point and normal counts differ, or whose header
 /// [`PointshellFile::open`] would reject: e.g. points but no tree, `leaf_size` 0, or
 /// statistics that count more points than there are.
-pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: usize) -> Result<u64, StorageError> {
+pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell) -> Result<u64, StorageError> {
     let path = path.as_ref();
     let invalid = |what: String| StorageError::InvalidInput {
         path: path.to_path_buf(),
@@ -37,7 +37,7 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell, leaf_size: u
         points: n,
         nodes,
         tree_depth: shell.tree.nodes.iter().map(|d| d.depth).max().unwrap_or(0),
-        leaf_size: leaf_size as u32,
+        leaf_size: shell.tree.leaf_size,
         interior_points: shell.stats.interior_points,
         boundary_points_recovered: shell.stats.boundary_points_recovered,
         normal_fallbacks: shell.stats.normal_fallbacks,
