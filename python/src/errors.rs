@@ -65,6 +65,20 @@ impl ToPy for vps::haptics::HapticsError {
     }
 }
 
+impl ToPy for vps::Error {
+    fn to_py(self) -> PyErr {
+        match self {
+            vps::Error::Mesh(e) => (*e).to_py(),
+            vps::Error::Storage(e) => (*e).to_py(),
+            vps::Error::Generate(e) => (*e).to_py(),
+            vps::Error::Haptics(e) => (*e).to_py(),
+            // A scene file is read where a mesh is.
+            vps::Error::Scene(e) => MeshError::new_err(e.to_string()),
+            e => VpsError::new_err(e.to_string()),
+        }
+    }
+}
+
 impl ToPy for SliceError {
     fn to_py(self) -> PyErr {
         match self {

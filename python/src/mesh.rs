@@ -48,10 +48,13 @@ impl PyMesh {
         Ok(PyMesh { mesh: mesh.or_raise()? })
     }
 
-    /// Load a mesh file: OBJ (or `.obj.zst`), STL, PLY, glTF or GLB, by extension or content.
+    /// Load a mesh file: OBJ (or `.obj.zst`), STL, PLY, glTF or GLB, by extension or content;
+    /// or a scene file (`.toml`), its meshes placed as one.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
-        let mesh = py.detach(|| Mesh::load(&path)).or_raise()?;
+        let mesh = py
+            .detach(|| vps::load_mesh(&path, &vps::LoadOptions::default()))
+            .or_raise()?;
         Ok(PyMesh { mesh })
     }
 

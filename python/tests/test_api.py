@@ -34,6 +34,23 @@ def test_mesh_from_arrays_and_from_file_agree(ball):
     assert vps.Mesh(v.tolist(), t.astype(np.uint32)).triangle_count == len(t)
 
 
+def test_a_scene_file_loads_as_its_placed_meshes(ball, tmp_path):
+    _, t, mesh, obj = ball
+    scene = tmp_path / "two.toml"
+    scene.write_text(
+        f'[[mesh]]\npath = "{obj.as_posix()}"\nname = "a"\n\n'
+        f'[[mesh]]\npath = "{obj.as_posix()}"\nname = "b"\ntranslation = [10.0, 0.0, 0.0]\n'
+    )
+    two = vps.Mesh.load(scene)
+    assert two.triangle_count == 2 * len(t)
+    corners, one = two.triangle_array(), mesh.triangle_array()  # three rows per triangle
+    np.testing.assert_array_equal(corners[: len(one)], one)
+    np.testing.assert_allclose(corners[len(one) :], one + [10.0, 0.0, 0.0])
+    scene.write_text("[[mesh]]\nname = 3\n")
+    with pytest.raises(vps.MeshError, match="two.toml"):
+        vps.Mesh.load(scene)
+
+
 def test_voxelize_writes_the_same_file_as_the_command_line(ball, tmp_path, run_vps):
     _, _, mesh, obj = ball
     vm = vps.voxelize(mesh, SIZE, layers=5)

@@ -76,3 +76,4 @@ def test_parts_of_the_same_name_get_files_of_their_own(tmp_path):
     a, b = tmp_path / "a" / "door.obj", tmp_path / "b" / "door.obj.zst"
     names = part_names([a, b, tmp_path / "hood.obj"])
     assert names[0] != names[1] and all(n.startswith("door-") for n in names[:2]) and names[2] == "hood"
+    assert part_names([tmp_path / "roof.STL", tmp_path / "car.toml", tmp_path / "v1.2"]) == ["roof", "car", "v1.2"]

@@ -39,7 +39,8 @@ class Mesh:
         """One object from vertices (V, 3) and triangles (T, 3) of vertex indices."""
     @staticmethod
     def load(path: _Path) -> Mesh:
-        """Load a mesh file: OBJ (or .obj.zst), STL, PLY, glTF or GLB, by extension or content."""
+        """Load a mesh file: OBJ (or .obj.zst), STL, PLY, glTF or GLB, by extension or content; or a
+        scene file (.toml), its meshes placed as one."""
     @property
     def triangle_count(self) -> int: ...
     @property

@@ -39,6 +39,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 #: The summary file written in the output directory.
 SUMMARY = "batch.json"
+# Extensions dropped from a part's file name to name its outputs.
+MESH_EXTENSIONS = ("obj", "stl", "ply", "gltf", "glb", "toml")
 
 
 def size_label(voxel_size: float) -> str:
@@ -49,16 +51,19 @@ def size_label(voxel_size: float) -> str:
 def part_names(parts: Sequence[PathLike]) -> List[str]:
     """A file-name stem for each part, unique within the batch.
 
-    The stem of the file (``door.obj`` and ``door.obj.zst`` give ``door``); two parts with
+    The stem of the file (``door.obj``, ``door.obj.zst``, ``door.stl`` and ``door.toml`` give
+    ``door``); two parts with
     the same stem in different directories get a short hash of their path appended, so no
     two tasks write the same file.
     """
     stems = []
     for p in parts:
         name = Path(p).name
-        for ending in (".zst", ".obj"):
-            if name.lower().endswith(ending):
-                name = name[: -len(ending)]
+        if name.lower().endswith(".zst"):
+            name = name[: -len(".zst")]
+        stem, dot, ext = name.rpartition(".")
+        if dot and ext.lower() in MESH_EXTENSIONS:
+            name = stem
         stems.append(name)
     names = []
     for p, stem in zip(parts, stems):
@@ -214,7 +219,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         prog="python -m vps.batch",
         description="Voxelize many parts at several voxel sizes on a Dask cluster, one task each.",
     )
-    ap.add_argument("parts", nargs="+", help="mesh files (.obj, .obj.zst)")
+    ap.add_argument("parts", nargs="+", help="mesh files (.obj, .obj.zst, .stl, .ply, .gltf, .glb) or scene files (.toml)")
     ap.add_argument("--sizes", required=True, help="voxel sizes, comma-separated, e.g. 2,1,0.5")
     ap.add_argument("--out", required=True, help="output directory, shared by all workers")
     ap.add_argument("--scheduler", help="address of a running Dask scheduler (default: a local cluster)")

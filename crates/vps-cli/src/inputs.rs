@@ -27,22 +27,14 @@ pub fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
         pb.set_length(total.unwrap_or(read));
         pb.set_position(read);
     };
-    let mesh = if vps::scene::is_scene_path(path) {
-        let scene = vps::scene::Scene::load(path).context("loading the scene")?;
-        // Each mesh is counted as it loads; the placed whole is counted below.
-        let each = vps::mesh::LoadOptions {
-            max_mesh_bytes: limit,
-            progress: None,
-        };
-        scene
-            .to_mesh_with(|p| Mesh::load_with(p, &each))
-            .context("loading the scene")?
-    } else {
-        let options = vps::mesh::LoadOptions {
-            max_mesh_bytes: limit,
-            progress: Some(&progress),
-        };
-        Mesh::load_with(path, &options).map_err(|e| match e {
+    // A scene's meshes are each counted as they load (without a progress bar of their own);
+    // the placed whole is counted below.
+    let options = vps::LoadOptions {
+        max_mesh_bytes: limit,
+        progress: (!vps::scene::is_scene_path(path)).then_some(&progress as &dyn Fn(u64, Option<u64>)),
+    };
+    let mesh = vps::load_mesh(path, &options).map_err(|e| match e {
+        vps::Error::Mesh(e) => match *e {
             vps::mesh::MeshError::TooLarge { kept_bytes, limit } => anyhow::anyhow!(
                 "memory limit too small: the mesh needs more than the {} this run may use for it ({} with the next \
                  vertex or triangle)",
@@ -50,8 +42,10 @@ pub fn load_mesh(path: &Path, limit: Option<u64>) -> Result<Mesh> {
                 human_bytes(kept_bytes)
             ),
             e => e.into(),
-        })?
-    };
+        },
+        vps::Error::Scene(e) => anyhow::Error::new(*e).context("loading the scene"),
+        e => e.into(),
+    })?;
     pb.finish_and_clear();
     // A scene is assembled from its meshes before it can be counted.
     if let Some(limit) = limit.filter(|&l| mesh.approx_bytes() > l) {

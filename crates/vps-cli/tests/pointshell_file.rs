@@ -9,9 +9,8 @@ use std::path::Path;
 use std::process::Output;
 
 use glam::DVec3;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::{PointshellFile, Triangle};
+use vps::{PointshellFile, Triangle, LEAF_SIZE};
 
 fn write_obj(path: &Path, tris: &[Triangle]) {
     let mut s = String::from("o ball\n");

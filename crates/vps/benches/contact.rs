@@ -13,11 +13,10 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::{DQuat, DVec3};
 use vps::haptics::contact_brute_force;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
 use vps::{
     contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, ContactParams, Mesh, PointshellFile,
-    Pose, VoxelizeParams,
+    Pose, VoxelizeParams, LEAF_SIZE,
 };
 
 /// Points of a unit ball's pointshell at voxel size `v` are about 18.8 / v².

@@ -6,15 +6,16 @@
 //!   [`Pose`] that scenes and haptics share;
 //! - [`grid`]: where voxels and bricks sit in the world;
 //! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
-//! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ files or built in code;
-//! - [`scene`]: scene files (`.toml`): several OBJ meshes placed by transforms, as one mesh (`docs/SCENE.md`);
+//! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ, STL, PLY and glTF files or built in code;
+//! - [`scene`]: scene files (`.toml`): several meshes placed by poses and scales, as one mesh (`docs/SCENE.md`);
 //! - [`generate`]: mesh → voxmap;
 //! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
-//! - [`haptics`]: the contact query, force and torque from the two mapped files;
+//! - [`haptics`]: the contact query: force and torque from a voxmap and a pointshell, in memory or mapped;
 //! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.
 //!
-//! The small API most callers need is re-exported here: load a [`Mesh`], [`voxelize`] it into a
+//! The small API most callers need is re-exported here: load a [`Mesh`] of any format or a
+//! scene's meshes as one ([`load_mesh`]), [`voxelize`] it into a
 //! [`Voxmap`], sample its [`pointshell()`], write both ([`write_voxmap`], [`write_pointshell`]),
 //! open them again ([`VoxmapFile`], [`PointshellFile`]), and ask for the [`contact`] force at a
 //! [`Pose`] — over voxmaps and pointshells in memory or mapped from files alike
@@ -45,7 +46,7 @@ pub use haptics::{contact, CachedVoxmap, Contact, ContactParams};
 pub use mesh::{LoadOptions, Mesh, Triangle};
 pub use pointshell::tree::LEAF_SIZE;
 pub use pointshell::{Pointshell, PointshellData};
-pub use scene::Scene;
+pub use scene::{load_mesh, Scene};
 pub use storage::pointshell::{write_pointshell, PointshellFile};
 pub use storage::{write_voxmap, VoxmapFile};
 pub use voxmap::Voxmap;

@@ -367,6 +367,11 @@ fn scenes_place_meshes_of_every_format() {
          [[mesh]]\npath = \"parts.glb\"\n",
     );
     let m = Scene::load(&scene).unwrap().to_mesh().unwrap();
+    // `vps::load_mesh` takes a scene file where a mesh goes, and reads a mesh file as Mesh::load.
+    let same = |a: &Mesh, b: &Mesh| a.triangles == b.triangles && a.objects == b.objects;
+    assert!(same(&vps::load_mesh(&scene, &Default::default()).unwrap(), &m));
+    let stl = dir.path().join("ball.stl");
+    assert!(same(&vps::load_mesh(&stl, &Default::default()).unwrap(), &Mesh::load(&stl).unwrap()));
     let names: Vec<&str> = m.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(
         names,
@@ -381,6 +386,8 @@ fn scenes_place_meshes_of_every_format() {
     std::fs::write(dir.path().join("ball.ply"), "ply\nformat ascii 1.0\nend_header\n").unwrap();
     let e = Scene::load(&scene).unwrap().to_mesh().unwrap_err().to_string();
     assert!(e.contains("ball.ply") && e.contains("no `vertex` element"), "{e}");
+    let e = vps::load_mesh(&scene, &Default::default()).unwrap_err();
+    assert!(matches!(e, vps::Error::Scene(_)) && e.to_string().contains("ball.ply"), "{e}");
 }
 
 #[test]

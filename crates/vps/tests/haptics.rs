@@ -7,11 +7,10 @@ use std::time::Duration;
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 use vps::haptics::contact_brute_force;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
 use vps::{
     contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, Contact, ContactParams, Mesh,
-    PointshellFile, Pose, Triangle, VoxelizeParams,
+    PointshellFile, Pose, Triangle, VoxelizeParams, LEAF_SIZE,
 };
 
 /// A voxmap and a pointshell, written to files and opened as a query would.

@@ -3,9 +3,8 @@
 
 use glam::DVec3;
 use vps::geometry::closest::closest_point;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
-use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams, Voxmap};
+use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams, Voxmap, LEAF_SIZE};
 
 fn make(mesh: &Mesh, voxel_size: f64) -> (Voxmap, Pointshell) {
     let params = VoxelizeParams {

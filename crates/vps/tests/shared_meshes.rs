@@ -203,7 +203,7 @@ fn open_real_meshes_get_an_inside_and_inward_normals() {
         let (vm, report) = voxelize(&mesh, &params).unwrap();
         eprintln!("{name}: {} of {} objects open", report.open_objects, mesh.objects.len());
         assert!(vm.counts().inner_voxels > 0, "{name}: nothing inside");
-        let (shell, _) = vps::pointshell(&mesh, &vm, vps::pointshell::tree::LEAF_SIZE).unwrap();
+        let (shell, _) = vps::pointshell(&mesh, &vm, vps::LEAF_SIZE).unwrap();
         let (decided, inward) = common::inward_normals(&mesh, &shell, params.voxel_size, 400);
         eprintln!("{name}: {inward} of {decided} normals where the winding number decides point inward");
         assert!(decided >= 40, "{name}: only {decided} points decided");

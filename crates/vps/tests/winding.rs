@@ -281,7 +281,7 @@ fn normals_of_open_soups_point_inward() {
     ]);
     let s = 0.3;
     let vm = winding(&mesh, s, 3);
-    let (shell, _) = vps::pointshell(&mesh, &vm, vps::pointshell::tree::LEAF_SIZE).unwrap();
+    let (shell, _) = vps::pointshell(&mesh, &vm, vps::LEAF_SIZE).unwrap();
     let (decided, inward) = common::inward_normals(&mesh, &shell, s, 800);
     eprintln!("open soups: {inward} of {decided} decided normals point inward");
     assert!(decided > 300, "{decided}");

@@ -25,11 +25,10 @@ use std::sync::OnceLock;
 
 use glam::DVec3;
 use vps::haptics::HapticsError;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes::{self, SplitMix};
 use vps::{
     contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, Contact, ContactParams, Mesh,
-    Pointshell, PointshellFile, Pose, Triangle, VoxelizeParams, Voxmap, VoxmapFile,
+    Pointshell, PointshellFile, Pose, Triangle, VoxelizeParams, Voxmap, VoxmapFile, LEAF_SIZE,
 };
 use vps_capi::{self as ffi, VpsContactResult};
 

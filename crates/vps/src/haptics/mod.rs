@@ -1,9 +1,10 @@
 //! The haptic query: the force and torque a voxmap exerts on a posed pointshell (the formula
 //! and its sign conventions are in `docs/HAPTICS.md`).
 //!
-//! This room reads only storage types: a [`CachedVoxmap`] over a `.vxm` file and a
-//! [`PointshellFile`](crate::storage::pointshell::PointshellFile), both memory-mapped, so
-//! many processes can query the same files and share the page cache.
+//! The query reads a [`CachedVoxmap`] (a voxmap in memory, or a `.vxm` file memory-mapped) and
+//! any [`PointshellData`](crate::PointshellData) (a [`Pointshell`](crate::Pointshell) in memory,
+//! or a [`PointshellFile`](crate::PointshellFile) mapped): mapped files let many processes query
+//! the same data and share the page cache.
 //!
 //! - [`contact`] walks the pointshell's sphere tree and skips every sphere the voxmap proves to
 //!   be outside; [`contact_brute_force`] tests every point, and gives the same sums.

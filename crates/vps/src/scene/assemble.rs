@@ -6,7 +6,21 @@ use std::path::Path;
 use super::error::{EntryRef, SceneError};
 use super::placement::Placer;
 use super::Scene;
-use crate::mesh::{Mesh, MeshError, Triangle};
+use crate::mesh::{LoadOptions, Mesh, MeshError, Triangle};
+
+/// A mesh file of any format [`Mesh::load_with`] reads, or a scene file (`.toml`, see
+/// [`is_scene_path`](super::is_scene_path)) whose meshes are each read with `options` and
+/// placed as one mesh. A scene's assembled mesh is not counted against
+/// [`LoadOptions::max_mesh_bytes`], only each of its meshes: check
+/// [`Mesh::approx_bytes`] when the whole must fit.
+pub fn load_mesh(path: impl AsRef<Path>, options: &LoadOptions) -> crate::Result<Mesh> {
+    let path = path.as_ref();
+    if super::is_scene_path(path) {
+        Ok(Scene::load(path)?.to_mesh_with(|p| Mesh::load_with(p, options))?)
+    } else {
+        Ok(Mesh::load_with(path, options)?)
+    }
+}
 
 impl Scene {
     /// The scene as one mesh: every entry's mesh loaded with [`Mesh::load`] (each distinct

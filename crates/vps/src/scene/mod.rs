@@ -40,6 +40,7 @@ mod testing;
 
 use std::path::{Path, PathBuf};
 
+pub use assemble::load_mesh;
 pub use error::{EntryRef, Location, SceneError};
 pub use placement::Placement;
 

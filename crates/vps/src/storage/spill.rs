@@ -60,7 +60,8 @@ impl Drop for RegisteredDir {
 }
 
 impl SpillDir {
-    /// Create a spill directory in `parent` (beside the output, or the user's --tmp-dir).
+    /// Create a spill directory in `parent` (beside the output, or wherever the caller keeps
+    /// temporary files).
     pub fn create_in(parent: &Path) -> Result<SpillDir, StorageError> {
         let dir = tempfile::Builder::new()
             .prefix(SPILL_PREFIX)

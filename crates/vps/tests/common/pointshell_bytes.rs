@@ -3,13 +3,12 @@
 //! parsed back. Shared by the library's file tests and the command line's.
 
 use glam::DVec3;
-use vps::pointshell::tree::LEAF_SIZE;
 use vps::shapes;
 use vps::storage::pointshell::{
     write_pointshell, PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1, PS_VERSION_1,
 };
 use vps::storage::StorageError;
-use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams};
+use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams, LEAF_SIZE};
 
 pub fn shell_of(mesh: &Mesh, voxel_size: f64, leaf_size: usize) -> Pointshell {
     let params = VoxelizeParams {
