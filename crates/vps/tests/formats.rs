@@ -371,7 +371,10 @@ fn scenes_place_meshes_of_every_format() {
     let same = |a: &Mesh, b: &Mesh| a.triangles == b.triangles && a.objects == b.objects;
     assert!(same(&vps::load_mesh(&scene, &Default::default()).unwrap(), &m));
     let stl = dir.path().join("ball.stl");
-    assert!(same(&vps::load_mesh(&stl, &Default::default()).unwrap(), &Mesh::load(&stl).unwrap()));
+    assert!(same(
+        &vps::load_mesh(&stl, &Default::default()).unwrap(),
+        &Mesh::load(&stl).unwrap()
+    ));
     let names: Vec<&str> = m.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(
         names,
@@ -387,7 +390,10 @@ fn scenes_place_meshes_of_every_format() {
     let e = Scene::load(&scene).unwrap().to_mesh().unwrap_err().to_string();
     assert!(e.contains("ball.ply") && e.contains("no `vertex` element"), "{e}");
     let e = vps::load_mesh(&scene, &Default::default()).unwrap_err();
-    assert!(matches!(e, vps::Error::Scene(_)) && e.to_string().contains("ball.ply"), "{e}");
+    assert!(
+        matches!(e, vps::Error::Scene(_)) && e.to_string().contains("ball.ply"),
+        "{e}"
+    );
 }
 
 #[test]
