@@ -1,5 +1,6 @@
-//! A C program built the way C callers built it before the workspace split (`-lvps`) links
-//! every function of `vps.h` from `libvps` and gets the library's answers.
+//! A C program built the way C callers built it before the workspace split (`-Iinclude -lvps`,
+//! from the repository's root) links every function of `vps.h` from `libvps` (`crates/libvps`,
+//! built for these tests as a dev-dependency) and gets the library's answers.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -32,7 +33,12 @@ fn lib_dir() -> PathBuf {
     [deps.clone(), deps.parent().unwrap().to_path_buf()]
         .into_iter()
         .find(|d| d.join(&name).is_file())
-        .unwrap_or_else(|| panic!("{name} not found beside {}: run with `cargo test`", deps.display()))
+        .unwrap_or_else(|| {
+            panic!(
+                "{name} not found beside {}: run with `cargo test`, which builds it as a dev-dependency",
+                deps.display()
+            )
+        })
 }
 
 #[test]
@@ -40,7 +46,7 @@ fn a_program_linked_with_lvps_runs() {
     let dir = tempfile::tempdir().unwrap();
     let source = dir.path().join("old.c");
     std::fs::write(&source, PROGRAM).unwrap();
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../vps-capi/include");
+    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../include");
     let lib = lib_dir();
     let program = dir.path().join("old");
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
