@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 
-use vps::generate::budget;
+use vps::out_of_core::budget;
 
 use crate::args::parse_bytes;
 

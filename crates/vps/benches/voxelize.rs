@@ -121,7 +121,7 @@ fn pipeline(c: &mut Criterion) {
 /// The same synthetic car written to a file in memory and out of core (one slab and thin
 /// slabs), both fills: the cost of bounded memory, as ratios in one run.
 fn out_of_core(c: &mut Criterion) {
-    use vps::generate::out_of_core::{voxelize_bounded, Bounded};
+    use vps::out_of_core::{voxelize_bounded, Bounded};
     use vps::Fill;
     let mesh = vps::synth::synth_car(&vps::synth::SynthParams {
         triangles: 200_000,

@@ -8,7 +8,9 @@
 //! - [`voxmap`]: the sparse voxmap, its flood fill and layers; knows nothing of meshes;
 //! - [`mesh`] and [`shapes`]: triangle meshes, from OBJ, STL, PLY and glTF files or built in code;
 //! - [`scene`]: scene files (`.toml`): several meshes placed by poses and scales, as one mesh (`docs/SCENE.md`);
-//! - [`generate`]: mesh → voxmap;
+//! - [`generate`]: mesh → voxmap → pointshell, in memory, without I/O;
+//! - [`out_of_core`]: voxelizing what does not fit in memory, slab by slab through spill files
+//!   straight into a `.vxm`, and the memory budgets that decide when to;
 //! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
 //! - [`haptics`]: the contact query: force and torque from a voxmap and a pointshell, in memory or mapped;
 //! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
@@ -29,6 +31,7 @@ pub mod geometry;
 pub mod grid;
 pub mod haptics;
 pub mod mesh;
+pub mod out_of_core;
 pub mod pointshell;
 pub mod reference;
 pub mod scene;

@@ -7,7 +7,7 @@ mod common;
 use std::collections::BTreeSet;
 
 use glam::DVec3;
-use vps::generate::out_of_core::{voxelize_bounded, Bounded};
+use vps::out_of_core::{voxelize_bounded, Bounded};
 use vps::shapes;
 use vps::{voxelize, Fill, Mesh, Triangle, VoxelizeParams, VoxmapFile};
 

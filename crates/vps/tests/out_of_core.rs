@@ -10,8 +10,8 @@ use common::{assembly, random_part};
 use glam::DVec3;
 use proptest::prelude::*;
 
-use vps::generate::out_of_core::{voxelize_bounded, Bounded};
 use vps::generate::GenerateError;
+use vps::out_of_core::{voxelize_bounded, Bounded};
 use vps::shapes;
 use vps::synth::{synth_car, SynthParams};
 use vps::{voxelize, write_voxmap, Fill, Mesh, Triangle, VoxelizeParams, VoxmapFile};

@@ -128,7 +128,7 @@ fn real_meshes_round_trip_through_files() {
 /// byte, as the in-memory path, with thin slabs and both fills.
 #[test]
 fn real_assemblies_out_of_core_equal_in_memory() {
-    use vps::generate::out_of_core::{voxelize_bounded, Bounded};
+    use vps::out_of_core::{voxelize_bounded, Bounded};
     use vps::Fill;
     let Some(dir) = meshes_dir() else { return };
     let tmp = tempfile::tempdir().unwrap();

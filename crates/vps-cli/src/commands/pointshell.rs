@@ -8,7 +8,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::json;
 
-use vps::generate::{budget, voxelize_with, Navigation};
+use vps::generate::{voxelize_with, Navigation};
+use vps::out_of_core::budget;
 use vps::write_pointshell;
 
 use crate::args::voxelize_params;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 
-use vps::generate::budget;
+use vps::out_of_core::budget;
 use vps::Fill;
 
 use crate::args::{parse_bytes, voxelize_params, NavArg};

@@ -5,10 +5,8 @@
 //! 3. [`crate::voxmap::layers`]: chessboard distance layers around the surface;
 //! 4. signed values per brick; uniform bricks become tiles.
 
-pub mod budget;
 pub mod inside;
 pub mod navigate;
-pub mod out_of_core;
 pub mod pointshell;
 pub mod surface;
 pub mod winding;

@@ -10,8 +10,8 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use vps::generate::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
 use vps::generate::GenerateError;
+use vps::out_of_core::{voxelize_bounded, Bounded, RESERVED_BYTES};
 use vps::storage::directory_of;
 use vps::{Fill, Mesh, VoxelizeParams};
 

@@ -10,7 +10,7 @@
 
 use crate::mesh::Mesh;
 
-use super::VoxelizeParams;
+use crate::generate::VoxelizeParams;
 
 /// Fraction of the machine's memory a run may use when the user sets no limit.
 pub const DEFAULT_BUDGET_FRACTION: f64 = 0.5;
@@ -131,7 +131,7 @@ mod tests {
         let ratio = fine.surface_voxels / coarse.surface_voxels;
         assert!((2.0..4.5).contains(&ratio), "{ratio}");
         // The estimate bounds the surface the voxelizer finds.
-        let (vm, _) = super::super::voxelize(&mesh, &params(0.25)).unwrap();
+        let (vm, _) = crate::generate::voxelize(&mesh, &params(0.25)).unwrap();
         let found = vm.counts().surface_voxels as f64;
         assert!(
             fine.surface_voxels >= found && fine.surface_voxels < 4.0 * found,

@@ -28,9 +28,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::surface::{chunk_surface, ChunkBins, CHUNK_BRICKS};
-use super::winding;
-use super::{
+use crate::generate::surface::{chunk_surface, ChunkBins, CHUNK_BRICKS};
+use crate::generate::winding;
+use crate::generate::{
     add_inside_span, inside, signed_bricks, Fill, GenerateError, NavStats, RunList, VoxelizeParams, VoxelizeReport,
 };
 use crate::grid::Grid;
@@ -43,6 +43,7 @@ use crate::voxmap::mask::union_by_key;
 use crate::voxmap::solid::{ObjectsInside, Solid};
 use crate::voxmap::Mask512;
 
+pub mod budget;
 mod slabs;
 mod spill;
 
@@ -124,7 +125,7 @@ pub fn voxelize_bounded(
     output: &Path,
     opts: &Bounded,
 ) -> Result<BoundedReport, GenerateError> {
-    let grid = super::grid_for(mesh, params)?;
+    let grid = crate::generate::grid_for(mesh, params)?;
     let nb = grid.brick_dims();
     let plane = nb[1] as u64 * nb[2] as u64;
     let halo = (params.layers as u32).div_ceil(8);
