@@ -11,7 +11,8 @@
 //! - [`generate`]: mesh → voxmap → pointshell, in memory, without I/O;
 //! - [`out_of_core`]: voxelizing what does not fit in memory, slab by slab through spill files
 //!   straight into a `.vxm`, and the memory budgets that decide when to;
-//! - [`storage`]: the `.vxm` and `.vps` files, memory-mapped (format in `docs/FORMAT.md`);
+//! - [`storage`]: the file formats, one module each: `.vxm` ([`storage::vxm`]) and `.vps`
+//!   ([`storage::pointshell`]), memory-mapped (byte layouts in `docs/FORMAT.md`);
 //! - [`haptics`]: the contact query: force and torque from a voxmap and a pointshell, in memory or mapped;
 //! - [`synth`]: a reproducible car-scale test scene (`vps scene synth`);
 //! - [`reference`](mod@reference): slow, obvious versions of the fast paths, for tests and benchmarks.

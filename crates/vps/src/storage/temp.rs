@@ -89,7 +89,7 @@ impl TempOutput {
     /// files are private by default; the finished file should be readable like any other
     /// the user creates (the umask still applies).
     pub fn beside(output: &Path, prefix: &str) -> Result<TempOutput, StorageError> {
-        let dir = super::directory_of(output).to_path_buf();
+        let dir = directory_of(output).to_path_buf();
         let mut builder = tempfile::Builder::new();
         builder.prefix(prefix).suffix(".tmp");
         #[cfg(unix)]
@@ -177,7 +177,7 @@ impl Seek for TempOutput {
 /// Sync the directory of `path`, so that a rename into it survives a crash.
 pub(crate) fn sync_parent(path: &Path) {
     #[cfg(unix)]
-    if let Ok(d) = File::open(super::directory_of(path)) {
+    if let Ok(d) = File::open(directory_of(path)) {
         let _ = d.sync_all();
     }
     #[cfg(not(unix))]
@@ -201,6 +201,14 @@ pub const VXM_TMP_PREFIX: &str = ".vxm-";
 pub const OTHER_TMP_PREFIX: &str = ".vps-";
 /// Name suffix of temporary files.
 pub const TMP_SUFFIX: &str = ".tmp";
+
+/// The directory a file at `path` lives in: its parent, or `.` for a bare file name.
+pub fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
 
 #[cfg(test)]
 mod tests {

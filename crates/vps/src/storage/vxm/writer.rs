@@ -404,14 +404,6 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// The directory a file at `path` lives in: its parent, or `.` for a bare file name.
-pub fn directory_of(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    }
-}
-
 /// Write `voxmap` to `path` atomically, compressing its bricks in parallel.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;

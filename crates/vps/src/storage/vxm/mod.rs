@@ -1,0 +1,129 @@
+//! The `.vxm` file: a voxmap on disk, memory-mapped and read in place (format in
+//! `docs/FORMAT.md`).
+//!
+//! A file is a header, the brick payloads (each compressed on its own), a sorted brick index
+//! and a sorted table of inside runs. Opening maps the file and checks the header (each
+//! field within the format's limits and consistent with the others), the layout and the
+//! checksums of the two tables, which costs milliseconds whatever the size;
+//! a lookup then binary-searches the mapped index and decompresses only the brick it needs.
+//!
+//! Files are never written in place: [`VoxmapWriter`] writes a temporary file beside the
+//! target and renames it over the target when complete, so a crash leaves either the old
+//! file or the new one, and readers that have the old one mapped keep reading it.
+
+pub mod format;
+mod header;
+mod reader;
+pub mod slice;
+mod writer;
+
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::temp::{self, TempOutput};
+use super::{mmap, StorageError};
+use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
+use crate::voxmap::{
+    inside_value, outside_value, Brick, BrickSlot, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS,
+};
+use format::{
+    align8, decode_brick, encode_brick, new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
+    HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
+};
+use header::*;
+pub(crate) use reader::Backing;
+use reader::*;
+pub use reader::{BrickData, Header, VerifyReport, VoxmapFile};
+pub use writer::{write_voxmap, VoxmapWriter, WriteReport};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 40 bricks with varied values and inside runs between them, on a 4 × 4 × 8-brick grid.
+    fn bricks_and_runs() -> (Grid, Vec<Brick>, Vec<KeyRange>) {
+        let grid = Grid {
+            origin: DVec3::ZERO,
+            voxel_size: 1.0,
+            dims: [32, 32, 64],
+        };
+        let bricks: Vec<Brick> = (0..40u64)
+            .map(|i| {
+                let mut values = Box::new([-3i8; BRICK_VOXELS]);
+                for (j, v) in values.iter_mut().enumerate() {
+                    *v = ((i as usize * 7 + j) % 7) as i8 - 3;
+                }
+                Brick { key: i * 3, values }
+            })
+            .collect();
+        let runs = (0..39u64)
+            .map(|i| KeyRange {
+                start: i * 3 + 1,
+                end: i * 3 + 2 + i % 2,
+            })
+            .collect();
+        (grid, bricks, runs)
+    }
+
+    fn write(
+        path: &Path,
+        spill: Option<&Path>,
+        bricks: &[Brick],
+        runs: &[KeyRange],
+    ) -> Result<WriteReport, StorageError> {
+        let (grid, _, _) = bricks_and_runs();
+        let mut w = VoxmapWriter::create(path, grid, 2)?;
+        if let Some(dir) = spill {
+            w.spill_index_to(dir)?;
+        }
+        // Interleaved, as the out-of-core path writes them.
+        for (i, b) in bricks.iter().enumerate() {
+            w.push_brick(b.key, &b.values)?;
+            if let Some(&r) = runs.get(i) {
+                w.push_inside_run(r)?;
+            }
+        }
+        w.finish()
+    }
+
+    #[test]
+    fn a_spilled_index_gives_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, bricks, runs) = bricks_and_runs();
+        let (a, b) = (dir.path().join("a.vxm"), dir.path().join("b.vxm"));
+        let ra = write(&a, None, &bricks, &runs).unwrap();
+        let rb = write(&b, Some(dir.path()), &bricks, &runs).unwrap();
+        assert_eq!(ra, rb);
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        assert_eq!(VoxmapFile::open(&b).unwrap().verify().unwrap().bricks_checked, 40);
+        // The spill file is anonymous: nothing is left beside the outputs.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn a_brick_in_a_run_is_refused_with_a_spilled_index() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, bricks, mut runs) = bricks_and_runs();
+        // Brick 30 (key 90) falls in run 29, widened from [88, 90), pushed before it.
+        assert_eq!(runs[29], KeyRange { start: 88, end: 90 });
+        runs[29].end = 91;
+        let e = write(&dir.path().join("x.vxm"), Some(dir.path()), &bricks[..], &runs);
+        let msg = e.unwrap_err().to_string();
+        assert!(msg.contains("lies in inside run"), "{msg}");
+        assert!(!dir.path().join("x.vxm").exists());
+    }
+
+    #[test]
+    fn spilling_after_the_first_brick_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let (grid, bricks, _) = bricks_and_runs();
+        let mut w = VoxmapWriter::create(dir.path().join("y.vxm"), grid, 2).unwrap();
+        w.push_brick(bricks[0].key, &bricks[0].values).unwrap();
+        assert!(w.spill_index_to(dir.path()).is_err());
+    }
+}
