@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::inside::{column_crossing, column_ranges, NUDGE};
-use crate::geometry::winding::{faces_down, hessian_bound, strip_solid_angle, strip_solid_angle_down, AreaBound};
+use crate::geometry::winding::{faces_down, AreaBound};
 use crate::grid::{split_voxel, Grid, BRICK_SHIFT};
 use crate::mesh::Triangle;
 use crate::voxmap::mask::union_by_key;
@@ -33,6 +33,7 @@ use crate::voxmap::solid::ObjectsInside;
 use crate::voxmap::Mask512;
 
 mod blocks;
+mod edges;
 mod object;
 
 use blocks::*;
@@ -164,12 +165,13 @@ pub fn add_object_inside(
         .into_par_iter()
         .map(|tile| {
             let mut runs = Runs::new();
+            let view = Tile::new(&ctx, tile);
             let mut stack = vec![tile];
             let (mut blocks, mut singles) = (0, 0);
             while let Some(block) = stack.pop() {
                 blocks += 1;
                 singles += block.lo.iter().zip(block.hi).all(|(l, h)| h - l == 1) as u64;
-                decide(&ctx, block, &mut runs, &mut stack);
+                decide(&view, block, &mut runs, &mut stack);
             }
             (runs, blocks, singles)
         })

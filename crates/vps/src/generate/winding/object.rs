@@ -2,6 +2,7 @@
 //! their net uses), the box of voxels that may be inside, and the boundary part `b` of the
 //! winding number with its Taylor models.
 
+use super::edges::EdgeColumns;
 use super::*;
 
 /// An edge by its two welded vertices, in order.
@@ -24,6 +25,8 @@ pub(super) struct BoundaryEdge {
 #[derive(Clone, Debug)]
 pub struct WindingObject {
     pub(super) boundary: Vec<BoundaryEdge>,
+    /// The same edges as columns, for the sums over them.
+    columns: EdgeColumns,
     /// Bounds `|w|` from the triangles' areas, in grid units: for open objects only.
     pub(super) area: AreaBound,
     /// First and one-past-last voxel, per axis, whose centre may be inside: within the
@@ -108,8 +111,10 @@ impl WindingObject {
             let g: Vec<Triangle> = tris.iter().map(|t| t.map(|p| grid.to_grid_units(p))).collect();
             AreaBound::new(&g)
         };
+        let boundary: Vec<BoundaryEdge> = boundary.into_iter().map(|(_, e)| e).collect();
         WindingObject {
-            boundary: boundary.into_iter().map(|(_, e)| e).collect(),
+            columns: EdgeColumns::new(&boundary),
+            boundary,
             area,
             lo,
             hi,
@@ -135,46 +140,13 @@ impl WindingObject {
     /// The boundary part `b` of the winding number at `p` (grid units), of strips hanging up
     /// (or `down`).
     pub(super) fn boundary_part(&self, p: DVec3, down: bool) -> f64 {
-        let strip = if down {
-            strip_solid_angle_down
-        } else {
-            strip_solid_angle
-        };
-        self.boundary.iter().map(|e| e.m * strip(e.a, e.b, p)).sum::<f64>() / FOUR_PI
+        self.columns.strip_sum(p, down)
     }
 
     /// `b` at `c` (strips hanging up, or `down`), its gradient there, and a bound on the norm
     /// of its Hessian within `radius` of `c`; `None` when a boundary edge comes that near.
     pub(super) fn taylor(&self, c: DVec3, radius: f64, down: bool) -> Option<(f64, DVec3, f64)> {
-        // Strips hanging down use the −z pole: mirror the angle's inputs (see
-        // `strip_solid_angle_down`); the gradient is the same field either way.
-        let pole = if down { -1.0 } else { 1.0 };
-        let (mut b, mut g, mut h) = (0.0, DVec3::ZERO, 0.0);
-        for e in &self.boundary {
-            let (pa, pb) = (e.a - c, e.b - c);
-            let (la, lb) = (pa.length(), pb.length());
-            // A lower bound on the distance from any point of the ball to the edge: from its
-            // ends where they are far along it, else from the edge itself.
-            let along = (pb - pa).dot(-pa) / (e.len * e.len);
-            let dist = if along <= 0.0 {
-                la
-            } else if along >= 1.0 {
-                lb
-            } else {
-                (pa + (pb - pa) * along).length()
-            };
-            let d = dist - radius;
-            if d <= 0.0 {
-                return None;
-            }
-            let dot = pa.dot(pb);
-            // Strip angle and Biot–Savart field, as in `strip_solid_angle` and `segment_field`.
-            let det = (pa.x * pb.y - pa.y * pb.x) * pole;
-            b += e.m * 2.0 * det.atan2(la * lb + dot + (pa.z * lb + pb.z * la) * pole);
-            g += pa.cross(pb) * (e.m * (la + lb) / (la * lb * (la * lb + dot)));
-            h += hessian_bound(e.len, e.m, d);
-        }
-        Some((b / FOUR_PI, g / FOUR_PI, h / FOUR_PI))
+        self.columns.taylor(c, radius, down)
     }
 
     /// Whether some boundary edge's strip (vertical, from the edge up, or `down`) meets the
