@@ -13,7 +13,7 @@ use rustc_hash::FxHashMap;
 
 use glam::{DVec2, DVec3};
 
-use crate::geometry::winding::vertical_crossing;
+use crate::geometry::winding::{faces_down, vertical_crossing};
 use crate::grid::{Grid, BRICK_SHIFT};
 use crate::mesh::Triangle;
 use crate::voxmap::solid::ObjectsInside;
@@ -78,35 +78,50 @@ pub(crate) fn column_ranges(g: &Triangle, dims: [u32; 3]) -> Option<(Range<u32>,
     Some((range(lo.x, hi.x, NUDGE.x, dims[0]), range(lo.y, hi.y, NUDGE.y, dims[1])))
 }
 
-/// Add the inside of the closed object `tris` (world units) to `out`.
-pub fn add_closed_object(grid: &Grid, tris: &[Triangle], out: &mut ObjectsInside) {
-    add_closed_object_columns(grid, tris, 0..grid.dims[0], out);
+/// How a closed object's crossings with a voxel column make its inside.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rule {
+    /// Between the first crossing and the second, the third and the fourth, and so on: the
+    /// parity rule of [`crate::Fill::Objects`].
+    Parity,
+    /// Where the signed count of crossings below is not zero (+1 where a triangle faces down,
+    /// −1 up): the winding number of a closed object, so of [`crate::Fill::Winding`]. It
+    /// differs from parity where the object overlaps itself.
+    NonZero,
 }
 
-/// Add the inside of the closed object `tris` (world units) to `out`, in the voxel columns
-/// whose x lies in `x_columns` only; that range must start and end on brick boundaries (or
-/// the grid's end), so that whole brick columns are done. Columns are independent, so a slab
-/// of the grid can be done on its own.
+/// Add the inside of the closed object `tris` (world units) to `out`, by `rule`.
+pub fn add_closed_object(grid: &Grid, tris: &[Triangle], rule: Rule, out: &mut ObjectsInside) {
+    add_closed_object_columns(grid, tris, 0..grid.dims[0], rule, out);
+}
+
+/// Add the inside of the closed object `tris` (world units) to `out`, by `rule`, in the voxel
+/// columns whose x lies in `x_columns` only; that range must start and end on brick
+/// boundaries (or the grid's end), so that whole brick columns are done. Columns are
+/// independent, so a slab of the grid can be done on its own.
 pub fn add_closed_object_columns(
     grid: &Grid,
     tris: &[Triangle],
     x_columns: std::ops::Range<u32>,
+    rule: Rule,
     out: &mut ObjectsInside,
 ) {
     let dims = grid.dims;
     let nb = grid.brick_dims();
-    // (brick column, voxel column within it, z) of every crossing.
-    let mut crossings: Vec<(u64, u8, f64)> = Vec::new();
+    // (brick column, voxel column within it, z, +1 where the triangle faces down or −1) of
+    // every crossing.
+    let mut crossings: Vec<(u64, u8, f64, i8)> = Vec::new();
     for t in tris {
         let g = t.map(|p| grid.to_grid_units(p));
         let Some((xs, ys)) = column_ranges(&g, dims) else {
             continue;
         };
+        let sign = if faces_down(&g) { 1 } else { -1 };
         for i in xs.start.max(x_columns.start)..xs.end.min(x_columns.end) {
             for j in ys.clone() {
                 if let Some(z) = column_crossing(&g, i as f64 + 0.5, j as f64 + 0.5) {
                     let bc = (i >> BRICK_SHIFT) as u64 * nb[1] as u64 + (j >> BRICK_SHIFT) as u64;
-                    crossings.push((bc, ((j & 7) << 3 | (i & 7)) as u8, z));
+                    crossings.push((bc, ((j & 7) << 3 | (i & 7)) as u8, z, sign));
                 }
             }
         }
@@ -123,22 +138,55 @@ pub fn add_closed_object_columns(
             let col = crossings[c].1;
             let stop = c + crossings[c..end].partition_point(|x| x.1 == col);
             let zs = &crossings[c..stop];
-            // An odd count means the line grazed the mesh where it is not closed after all:
-            // leave that column without inside rather than guess.
-            if zs.len().is_multiple_of(2) {
-                for pair in zs.chunks(2) {
-                    // Voxel k is inside when its centre k + 0.5 lies strictly between the two.
-                    let k0 = ((pair[0].2 - 0.5).floor() + 1.0).max(0.0);
-                    let k1 = ((pair[1].2 - 0.5).ceil()).min(dims[2] as f64);
-                    if k0 < k1 {
-                        columns[col as usize].push((k0 as u32, k1 as u32));
-                    }
-                }
+            let runs = &mut columns[col as usize];
+            match rule {
+                Rule::Parity => parity_runs(zs, dims[2], runs),
+                Rule::NonZero => nonzero_runs(zs, dims[2], runs),
             }
             c = stop;
         }
         let (bx, by) = ((bc / nb[1] as u64) as u32, (bc % nb[1] as u64) as u32);
         out.add_brick_column(nb, bx, by, &columns);
         at = end;
+    }
+}
+
+/// The inside runs of one column by the parity rule, from its crossings in order of height.
+fn parity_runs(zs: &[(u64, u8, f64, i8)], depth: u32, runs: &mut Vec<(u32, u32)>) {
+    // An odd count means the line grazed the mesh where it is not closed after all: leave
+    // that column without inside rather than guess.
+    if !zs.len().is_multiple_of(2) {
+        return;
+    }
+    for pair in zs.chunks(2) {
+        // Voxel k is inside when its centre k + 0.5 lies strictly between the two.
+        let k0 = ((pair[0].2 - 0.5).floor() + 1.0).max(0.0);
+        let k1 = ((pair[1].2 - 0.5).ceil()).min(depth as f64);
+        if k0 < k1 {
+            runs.push((k0 as u32, k1 as u32));
+        }
+    }
+}
+
+/// The inside runs of one column by the non-zero rule, from its crossings in order of height:
+/// voxel `k` is inside when the crossings strictly below its centre do not sum to zero.
+fn nonzero_runs(zs: &[(u64, u8, f64, i8)], depth: u32, runs: &mut Vec<(u32, u32)>) {
+    // Crossings that do not sum to zero mean the line grazed an edge or a vertex: leave that
+    // column without inside rather than guess, as the parity rule does.
+    if zs.iter().map(|c| c.3 as i32).sum::<i32>() != 0 {
+        return;
+    }
+    // The first voxel whose centre lies above height z.
+    let above = |z: f64| ((z - 0.5).floor() + 1.0).clamp(0.0, depth as f64) as u32;
+    let mut count = 0;
+    for pair in zs.windows(2) {
+        count += pair[0].3 as i32;
+        let (k0, k1) = (above(pair[0].2), above(pair[1].2));
+        if count != 0 && k0 < k1 {
+            match runs.last_mut() {
+                Some(last) if last.1 == k0 => last.1 = k1,
+                _ => runs.push((k0, k1)),
+            }
+        }
     }
 }

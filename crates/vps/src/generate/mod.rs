@@ -240,13 +240,18 @@ fn objects_surface(
             let mut interface = Vec::new();
             let closed = if fill == Fill::Winding {
                 let w = winding::WindingObject::new(grid, tris);
-                let all = winding::Columns::all(0..grid.dims[0]);
-                winding::add_object_inside(grid, tris, &w, &bricks, all, &mut inside, &mut interface);
+                if w.is_open() {
+                    let all = winding::Columns::all(0..grid.dims[0]);
+                    winding::add_object_inside(grid, tris, &w, &bricks, all, &mut inside, &mut interface);
+                } else {
+                    // A closed object's winding number is its signed crossing count.
+                    inside::add_closed_object(grid, tris, inside::Rule::NonZero, &mut inside);
+                }
                 !w.is_open()
             } else {
                 let closed = inside::is_closed(tris);
                 if closed {
-                    inside::add_closed_object(grid, tris, &mut inside);
+                    inside::add_closed_object(grid, tris, inside::Rule::Parity, &mut inside);
                 }
                 closed
             };

@@ -41,26 +41,39 @@ impl WindingObject {
     pub fn new(grid: &Grid, tris: &[Triangle]) -> WindingObject {
         let (wlo, whi) = crate::mesh::bounds_of(tris);
         let weld = crate::generate::inside::welder(tris);
-        // One position for each welded vertex, so the boundary closes exactly into chains
-        // (the strips' vertical sides then cancel in the gradient too).
-        let mut at: FxHashMap<[i64; 3], DVec3> = FxHashMap::default();
-        // Net uses of each edge, keyed by its welded ends in order, with their positions.
-        let mut edges: FxHashMap<WeldedEdge, (i64, DVec3, DVec3)> = FxHashMap::default();
+        // Net uses of each edge, keyed by its welded ends in order.
+        let mut uses: FxHashMap<WeldedEdge, i64> = FxHashMap::default();
+        uses.reserve(tris.len() * 3 / 2);
         for t in tris {
             for k in 0..3 {
                 let (a, b) = (weld(t[k]), weld(t[(k + 1) % 3]));
-                let p = *at.entry(a).or_insert(t[k]);
-                let r = *at.entry(b).or_insert(t[(k + 1) % 3]);
-                if a == b {
-                    continue;
+                if a != b {
+                    let (key, dir) = if a < b { ((a, b), 1) } else { ((b, a), -1) };
+                    *uses.entry(key).or_insert(0) += dir;
                 }
-                let (key, dir, pa, pb) = if a < b { ((a, b), 1, p, r) } else { ((b, a), -1, r, p) };
-                edges.entry(key).or_insert((0, pa, pb)).0 += dir;
             }
         }
+        uses.retain(|_, m| *m != 0);
+        // One position for each welded vertex of the boundary, its first in the triangles, so
+        // the boundary closes exactly into chains (the strips' vertical sides then cancel in
+        // the gradient too). Closed objects, most of a scene, skip this.
+        let mut at: FxHashMap<[i64; 3], Option<DVec3>> = FxHashMap::default();
+        for &(a, b) in uses.keys() {
+            at.insert(a, None);
+            at.insert(b, None);
+        }
+        if !at.is_empty() {
+            for v in tris.iter().flatten() {
+                if let Some(slot @ None) = at.get_mut(&weld(*v)) {
+                    *slot = Some(*v);
+                }
+            }
+        }
+        let position = |v: &[i64; 3]| at[v].expect("every welded vertex of an edge comes from a triangle");
+        let edges = uses
+            .iter()
+            .map(|(key, &m)| (*key, (m, position(&key.0), position(&key.1))));
         let mut boundary: Vec<(WeldedEdge, BoundaryEdge)> = edges
-            .into_iter()
-            .filter(|(_, e)| e.0 != 0)
             .map(|(key, (m, pa, pb))| {
                 let (a, b) = (grid.to_grid_units(pa), grid.to_grid_units(pb));
                 let edge = BoundaryEdge {
