@@ -381,6 +381,72 @@ mod tests {
 }
 
 #[cfg(test)]
+mod closed_tests {
+    use super::*;
+    use crate::generate::inside::{add_closed_object, Rule};
+    use crate::generate::surface::mark_surface;
+    use crate::generate::Navigation;
+    use crate::shapes;
+
+    /// A closed object's inside by the column fill with the non-zero rule (what the fills use)
+    /// is the block fill's, off the surface: also where the object overlaps itself (winding
+    /// number 2), holds a shell inside a shell, or is flipped whole (−1).
+    #[test]
+    fn the_non_zero_rule_is_the_block_fill_on_closed_objects() {
+        let a = shapes::cuboid(DVec3::new(-3.0, -2.0, -2.0), DVec3::new(1.3, 2.0, 1.7));
+        let b = shapes::sphere(DVec3::new(1.0, 0.2, 0.1), 2.2, 12, 24);
+        let overlapping: Vec<Triangle> = a.iter().chain(&b).copied().collect();
+        let nested: Vec<Triangle> = shapes::cuboid(DVec3::splat(-3.5), DVec3::splat(3.5))
+            .into_iter()
+            .chain(shapes::sphere(DVec3::new(0.3, -0.2, 0.1), 2.0, 12, 24))
+            .collect();
+        let cases = [
+            ("sphere", shapes::sphere(DVec3::new(0.1, 0.2, 0.3), 3.0, 16, 32)),
+            ("overlapping", overlapping),
+            ("nested", nested),
+            (
+                "flipped",
+                shapes::flipped(&shapes::torus(DVec3::ZERO, 2.5, 1.0, 24, 12)),
+            ),
+        ];
+        for (name, tris) in cases {
+            let (lo, hi) = crate::mesh::bounds_of(&tris);
+            let grid = Grid::around(lo, hi, 0.17, 2).unwrap();
+            let surface = mark_surface(&grid, &tris, Navigation::Auto).bricks;
+            let w = WindingObject::new(&grid, &tris);
+            assert!(!w.is_open(), "{name}");
+            let (mut blocks, mut interface) = (ObjectsInside::default(), Vec::new());
+            let all = Columns::all(0..grid.dims[0]);
+            add_object_inside(&grid, &tris, &w, &surface, all, &mut blocks, &mut interface);
+            let mut columns = ObjectsInside::default();
+            add_closed_object(&grid, &tris, Rule::NonZero, &mut columns);
+            let mut parity = ObjectsInside::default();
+            add_closed_object(&grid, &tris, Rule::Parity, &mut parity);
+            let (blocks, columns, parity) = (blocks.finish(), columns.finish(), parity.finish());
+            let nb = grid.brick_dims();
+            let (mut inside, mut by_parity) = (0, 0);
+            for key in 0..nb[0] as u64 * nb[1] as u64 * nb[2] as u64 {
+                let srf = match surface.binary_search_by_key(&key, |s| s.0) {
+                    Ok(i) => surface[i].1,
+                    Err(_) => Mask512::EMPTY,
+                };
+                let (x, y) = (
+                    blocks.inside_of(key).and_not(&srf),
+                    columns.inside_of(key).and_not(&srf),
+                );
+                assert_eq!(x, y, "{name}: brick {:?}", grid.brick_coords(key));
+                inside += x.iter().count();
+                by_parity += parity.inside_of(key).and_not(&srf).iter().count();
+            }
+            assert!(inside > 1000, "{name}: only {inside} voxels inside");
+            // Where the object overlaps itself or nests, the rules differ: the test means it.
+            let overlaps = matches!(name, "overlapping" | "nested");
+            assert_eq!(by_parity < inside, overlaps, "{name}: {by_parity} by parity, {inside}");
+        }
+    }
+}
+
+#[cfg(test)]
 mod slab_tests {
     use super::*;
     use crate::generate::surface::mark_surface;
