@@ -240,13 +240,8 @@ fn objects_surface(
             let mut interface = Vec::new();
             let closed = if fill == Fill::Winding {
                 let w = winding::WindingObject::new(grid, tris);
-                if w.is_open() {
-                    let all = winding::Columns::all(0..grid.dims[0]);
-                    winding::add_object_inside(grid, tris, &w, &bricks, all, &mut inside, &mut interface);
-                } else {
-                    // A closed object's winding number is its signed crossing count.
-                    inside::add_closed_object(grid, tris, inside::Rule::NonZero, &mut inside);
-                }
+                let all = winding::Columns::all(0..grid.dims[0]);
+                winding::add_object_inside(grid, tris, &w, &bricks, all, &mut inside, &mut interface);
                 !w.is_open()
             } else {
                 let closed = inside::is_closed(tris);

@@ -292,8 +292,10 @@ impl ObjectColumns {
                             };
                             winding::add_object_inside(grid, &own, w, surface, columns, &mut out, &mut interface)
                         }
-                        // A closed object's winding number is its signed crossing count.
-                        Some(_) => inside::add_closed_object_columns(grid, &own, x0..x1, inside::Rule::NonZero, into),
+                        Some(w) => {
+                            let columns = winding::Columns::all(x0..x1);
+                            winding::add_object_inside(grid, &own, w, surface, columns, into, &mut interface)
+                        }
                         None => inside::add_closed_object_columns(grid, &own, x0..x1, inside::Rule::Parity, into),
                     }
                     (out, interface)

@@ -99,7 +99,7 @@ pub(super) struct Tile<'a> {
     tile: Block,
     /// For each x of the tile, its columns' crossings.
     rows: Vec<&'a [(u64, f64, i8)]>,
-    /// Built on the first question, as closed objects never ask.
+    /// Built on the first question: tiles far from the level set never ask.
     surface: OnceCell<(
         /* first brick */ [i64; 3],
         /* bricks */ [i64; 3],
@@ -122,11 +122,7 @@ impl<'a> Tile<'a> {
 
     /// The crossings of columns `(x, y0..y1)` of the tile, in order.
     pub(super) fn row(&self, x: i64, y0: i64, y1: i64) -> &'a [(u64, f64, i8)] {
-        let row = self.rows[(x - self.tile.lo[0]) as usize];
-        let (k0, k1) = ((x as u64) << 32 | y0 as u64, (x as u64) << 32 | y1 as u64);
-        let s = row.partition_point(|c| c.0 < k0);
-        let e = s + row[s..].partition_point(|c| c.0 < k1);
-        &row[s..e]
+        row_of(self.rows[(x - self.tile.lo[0]) as usize], x, y0, y1)
     }
 
     /// Whether voxel `(x, y, z)`, which must lie in the tile, is a surface voxel of the scene.
@@ -185,7 +181,7 @@ pub(super) fn decide(tile: &Tile, block: Block, runs: &mut Runs, stack: &mut Vec
     let (lo, hi) = block.samples();
     // Far from a soup's triangles, their areas alone prove it outside: no model needed.
     let (c, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
-    if obj.is_open() && block.volume() >= AREA_TEST_VOXELS && !obj.area.may_reach(c, radius, THRESHOLD) {
+    if block.volume() >= AREA_TEST_VOXELS && !obj.area.may_reach(c, radius, THRESHOLD) {
         return;
     }
     // With a long boundary (loose triangles), models cost too much where triangles are: cut
@@ -198,15 +194,13 @@ pub(super) fn decide(tile: &Tile, block: Block, runs: &mut Runs, stack: &mut Vec
     // A strip inside the block makes `b` jump there: take the strips hanging down where those
     // hanging up cut the block, and where both do, cut across x and y until one column
     // remains, whose vertical line meets no strip.
-    let down = obj.is_open() && columns && obj.strip_meets(lo, hi, false);
+    let down = columns && obj.strip_meets(lo, hi, false);
     if down && obj.strip_meets(lo, hi, true) {
         block.refine(stack);
         return;
     }
     let single = !columns && block.extent(2) == 1;
-    let model = if !obj.is_open() {
-        Linear::ZERO
-    } else if single {
+    let model = if single {
         if tile.is_surface(block.lo[0], block.lo[1], block.lo[2]) {
             return;
         }
@@ -245,7 +239,7 @@ pub(super) fn decide(tile: &Tile, block: Block, runs: &mut Runs, stack: &mut Vec
         }
     };
     let mut open = Undecided::default();
-    scan(tile, block, &model, !obj.is_open(), runs, &mut open);
+    scan(tile, block, &model, runs, &mut open);
     // Decided voxels keep their runs (a part that decides them again adds the same runs);
     // the undecided ones go on alone when few, else the octants that hold them.
     if open.count == 0 {
@@ -288,15 +282,6 @@ pub(super) struct Linear {
 }
 
 impl Linear {
-    const ZERO: Linear = Linear {
-        at: DVec3::ZERO,
-        b: 0.0,
-        slope: DVec3::ZERO,
-        curvature: 0.0,
-        error: 0.0,
-        down: false,
-    };
-
     /// The range of `b` over the vertical segment at `(x, y)` from `z0` to `z1` (grid units).
     #[inline]
     pub(super) fn range(&self, x: f64, y: f64, z0: f64, z1: f64) -> (f64, f64) {
@@ -324,10 +309,8 @@ pub(super) fn side(s: i32, b_lo: f64, b_hi: f64) -> Option<bool> {
     }
 }
 
-/// Decide every voxel of `block` given the model of `b` there, adding its inside runs. For a
-/// `closed` object, a column whose crossings do not sum to zero grazed an edge or a vertex
-/// despite the nudge: it is left outside rather than guessed, as the parity fill does.
-pub(super) fn scan(tile: &Tile, block: Block, b: &Linear, closed: bool, runs: &mut Runs, open: &mut Undecided) {
+/// Decide every voxel of `block` given the model of `b` there, adding its inside runs.
+pub(super) fn scan(tile: &Tile, block: Block, b: &Linear, runs: &mut Runs, open: &mut Undecided) {
     let (z0, z1) = (block.lo[2], block.hi[2]);
     let centre = |k: i64| k as f64 + 0.5;
     for x in block.lo[0]..block.hi[0] {
@@ -341,9 +324,6 @@ pub(super) fn scan(tile: &Tile, block: Block, b: &Linear, closed: bool, runs: &m
                 at += 1;
             }
             let col = &row[start..at];
-            if closed && col.iter().map(|c| c.2 as i32).sum::<i32>() != 0 {
-                continue;
-            }
             let py = centre(y) + NUDGE.y;
             // Walk the column: S below the first centre, then segment by segment; with strips
             // hanging down, the crossings above count instead, negated.
