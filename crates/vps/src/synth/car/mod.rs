@@ -213,6 +213,15 @@ impl Scene {
         Ok(())
     }
 
+    /// Boxes `(name, low corner, high corner, share of budget)` as gridded parts.
+    fn add_boxes(&mut self, boxes: &[(&str, [f64; 3], [f64; 3], f64)], budget: f64) -> Result<(), SynthError> {
+        for &(name, lo, hi, f) in boxes {
+            let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
+            self.add(name, box_grid(lo, hi, box_divisions(hi - lo, budget * f)))?;
+        }
+        Ok(())
+    }
+
     pub(super) fn engine_bay(&mut self) -> Result<(), SynthError> {
         let budget = self.share(0.05);
         let boxes: [(&str, [f64; 3], [f64; 3], f64); 7] = [
@@ -226,11 +235,7 @@ impl Scene {
             ("air_box", [450.0, -480.0, 550.0], [850.0, -340.0, 750.0], 0.05),
             ("fuse_box", [1100.0, -560.0, 600.0], [1220.0, -420.0, 680.0], 0.02),
         ];
-        for (name, lo, hi, f) in boxes {
-            let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
-            let part = box_grid(lo, hi, box_divisions(hi - lo, budget * f));
-            self.add(name, part)?;
-        }
+        self.add_boxes(&boxes, budget)?;
         // Pulleys on the block's front face, sunk 10 mm into it.
         let segs = ((budget * 0.04 / 8.0).round() as usize).clamp(12, 2048);
         for (k, (y, z, r)) in [(-150.0, 450.0, 90.0), (120.0, 520.0, 60.0), (0.0, 700.0, 45.0)]
@@ -296,10 +301,7 @@ impl Scene {
             ("seat_rear_back", [3330.0, -650.0, 450.0], [3450.0, 650.0, 1000.0], 0.12),
             ("glovebox", [1950.0, 300.0, 650.0], [2000.0, 600.0, 760.0], 0.02),
         ];
-        for (name, lo, hi, f) in boxes {
-            let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
-            self.add(name, box_grid(lo, hi, box_divisions(hi - lo, budget * f)))?;
-        }
+        self.add_boxes(&boxes, budget)?;
         // Seat rails through the floor, bolted down.
         let seats = [("fl", 375.0), ("fr", -375.0)];
         for (tag, yc) in seats {
