@@ -1,14 +1,14 @@
 //! Building the tree: median splits of the points, in parallel above a size, each node
 //! fitted by [`super::fit`].
 
+use super::cone::set_cones;
 use super::fit::*;
 use super::*;
 
 /// A point during the build: position and where it came from, kept together so that the median
-/// splits move them as one and every pass over a node reads contiguous memory. The normal stays
-/// in the input, found by `id`: 16 bytes move twice as fast as 28 in the splits (measured), and
-/// the nodes' points stay close to their input order, so looking the normals up reads nearby
-/// memory.
+/// splits move them as one and every pass over a node reads contiguous memory. The normals are
+/// not needed until the cones, which are set after the build (see [`super::cone`]): 16 bytes
+/// move twice as fast as 28 in the splits (measured).
 #[derive(Clone, Copy)]
 pub(super) struct Item {
     pub(super) p: Vec3,
@@ -29,13 +29,15 @@ pub(super) struct Item {
 /// not claimed from a shared counter, so the two subtrees are built in parallel (`rayon::join`,
 /// for nodes of at least 4096 points) and the result does not depend on the number of threads.
 ///
-/// Each node's sphere costs O(its points), so the build is O(n log n): the candidates are the
-/// bounding box's centre, the centroid, and the minimal sphere of a small core set — the extreme
-/// points along x, y and z, grown by the farthest point from the current centre a few times,
-/// Bădoiu–Clarkson style, each step one pass. The candidate whose farthest point is nearest
-/// wins, and the radius is that farthest distance measured in `f32` from the stored `f32`
-/// centre, then raised by a few ulps, so that containment holds when re-checked in `f32`. The
-/// normal cone is the mean normal and the smallest cosine to it, lowered by two ulps.
+/// Each node's sphere costs O(its points), so the build is O(n log n): the centre is that of the
+/// minimal sphere of a small core set — the extreme points along x, y and z, grown by the
+/// farthest point from the current centre a few times, Bădoiu–Clarkson style, each step one
+/// pass. When the core set's sphere holds every point it is the minimal sphere; when the steps
+/// run out first, the bounding box's centre and the centroid are tried too, and the centre
+/// whose farthest point is nearest wins. The radius is that farthest distance measured in `f32`
+/// from the stored `f32` centre, then raised by a few ulps, so that containment holds when
+/// re-checked in `f32`. The normal cone, set once the points are in tree order, is the mean
+/// normal and the smallest cosine to it, lowered by two ulps.
 ///
 /// # Panics
 /// If `points` and `normals` differ in length, `leaf_size` is 0, there are 2³¹ points or more,
@@ -65,14 +67,12 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
         .collect();
     let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
     let (root, rest) = nodes.split_first_mut().expect("at least one node");
-    let mut buffer = vec![0.0f32; 7 * items.len()];
+    let mut buffer = vec![0.0f32; 4 * items.len()];
     let cols = Columns::new(&mut buffer, items.len());
-    let shared = Shared {
-        normals,
-        leaf: leaf_size,
-    };
+    let shared = Shared { leaf: leaf_size };
     build_node(&mut items, cols, &shared, 0, 0, root, rest, 1);
-    let order = items.par_iter().map(|it| it.id).collect();
+    let order: Vec<u32> = items.par_iter().map(|it| it.id).collect();
+    set_cones(&mut nodes, &reorder(normals, &order));
     let tree = SphereTree {
         nodes,
         leaf_size: leaf_bound,
@@ -120,9 +120,7 @@ pub(super) fn subtree_nodes(n: usize, leaf: usize) -> usize {
 }
 
 /// What every node of one build reads.
-pub(super) struct Shared<'a> {
-    /// The input normals, by `Item::id`.
-    pub(super) normals: &'a [Vec3],
+pub(super) struct Shared {
     /// Largest number of points in a leaf.
     pub(super) leaf: usize,
 }
@@ -142,12 +140,13 @@ pub(super) fn build_node(
 ) {
     let leaf = shared.leaf;
     let mut cols = cols;
-    let fit = fit(items, shared.normals, &mut cols);
+    let fit = fit(items, &mut cols);
     *node = SphereNode {
         center: fit.center.to_array(),
         radius: fit.radius,
-        cone_axis: fit.cone_axis.to_array(),
-        cone_cos: fit.cone_cos,
+        // Set by `set_cones` once the points are in tree order.
+        cone_axis: [0.0; 3],
+        cone_cos: -1.0,
         first_child: NO_CHILD,
         point_start,
         point_count: items.len() as u32,

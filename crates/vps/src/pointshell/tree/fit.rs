@@ -1,15 +1,13 @@
-//! A node's bounding sphere and normal cone: passes over the node's points in columns and
-//! lanes, refined towards the minimal enclosing sphere on a small core set.
+//! A node's bounding sphere: passes over the node's points in columns and lanes, refined
+//! towards the minimal enclosing sphere on a small core set.
 
 use super::build::*;
 use super::*;
 
-/// A node's bounding sphere, normal cone and split axis.
+/// A node's bounding sphere and split axis.
 pub(super) struct Fit {
     pub(super) center: Vec3,
     pub(super) radius: f32,
-    pub(super) cone_axis: Vec3,
-    pub(super) cone_cos: f32,
     pub(super) split_axis: usize,
 }
 
@@ -19,37 +17,32 @@ pub(super) struct Fit {
 /// the items.
 pub(super) struct Columns<'a> {
     pub(super) p: [&'a mut [f32]; 3],
-    pub(super) n: [&'a mut [f32]; 3],
     /// As long as the node: room for the extrema of its blocks of [`BLOCK`] points, 7 numbers a
     /// block, which fits for nodes of more than one block.
     pub(super) blocks: &'a mut [f32],
 }
 
 impl<'a> Columns<'a> {
-    /// Columns of `len` points: `buffer` must hold `7 * len` numbers.
+    /// Columns of `len` points: `buffer` must hold `4 * len` numbers.
     pub(super) fn new(buffer: &'a mut [f32], len: usize) -> Columns<'a> {
         let mut parts = buffer.chunks_exact_mut(len);
-        let mut next = || parts.next().expect("seven columns");
+        let mut next = || parts.next().expect("four columns");
         Columns {
             p: [next(), next(), next()],
-            n: [next(), next(), next()],
             blocks: next(),
         }
     }
 
     pub(super) fn split_at(self, mid: usize) -> (Columns<'a>, Columns<'a>) {
         let [px, py, pz] = self.p.map(|c| c.split_at_mut(mid));
-        let [nx, ny, nz] = self.n.map(|c| c.split_at_mut(mid));
         let blocks = self.blocks.split_at_mut(mid);
         (
             Columns {
                 p: [px.0, py.0, pz.0],
-                n: [nx.0, ny.0, nz.0],
                 blocks: blocks.0,
             },
             Columns {
                 p: [px.1, py.1, pz.1],
-                n: [nx.1, ny.1, nz.1],
                 blocks: blocks.1,
             },
         )
@@ -87,22 +80,35 @@ pub(super) fn larger(a: f32, b: f32) -> f32 {
 /// loop compiles to a few vector instructions per four points, inlined into [`fit`] it did not.
 #[inline(never)]
 pub(super) fn farthest(p: [&[f32]; 3], c: Vec3) -> f32 {
+    fold_lanes(p, 0.0, |x, y, z| dist2(x, y, z, c), larger)
+}
+
+/// Folds `value` of each point of the columns `p` with `pick`, starting from `init`, in
+/// [`LANES`] independent lanes and then across them. `pick` must be a maximum or a minimum:
+/// those do not round, so the lanes find what one scan finds.
+#[inline(always)]
+pub(super) fn fold_lanes(
+    p: [&[f32]; 3],
+    init: f32,
+    value: impl Fn(f32, f32, f32) -> f32,
+    pick: impl Fn(f32, f32) -> f32,
+) -> f32 {
     let [xs, ys, zs] = p;
     let n = xs.len().min(ys.len()).min(zs.len());
     let whole = n / LANES * LANES;
-    let mut far = [0.0f32; LANES];
+    let mut lanes = [init; LANES];
     let groups = xs[..whole]
         .chunks_exact(LANES)
         .zip(ys[..whole].chunks_exact(LANES))
         .zip(zs[..whole].chunks_exact(LANES));
     for ((x, y), z) in groups {
         for k in 0..LANES {
-            far[k] = larger(far[k], dist2(x[k], y[k], z[k], c));
+            lanes[k] = pick(lanes[k], value(x[k], y[k], z[k]));
         }
     }
-    let mut m = far.into_iter().fold(0.0, larger);
+    let mut m = lanes.into_iter().fold(init, &pick);
     for i in whole..n {
-        m = larger(m, dist2(xs[i], ys[i], zs[i], c));
+        m = pick(m, value(xs[i], ys[i], zs[i]));
     }
     m
 }
@@ -152,101 +158,35 @@ pub(super) fn first_at(p: [&[f32]; 3], c: Vec3, far2: f32, blocks: &[f32]) -> us
             .expect("the largest distance is attained")
 }
 
-/// The smallest of the cosines `n · a` of the normals `n` (columns), computed as `Vec3::dot`
-/// does, `(nx ax + ny ay) + nz az`; infinity for no normals. A minimum does not round either.
-#[inline(never)]
-pub(super) fn min_cos(n: [&[f32]; 3], a: Vec3) -> f32 {
-    let [xs, ys, zs] = n;
-    let len = xs.len().min(ys.len()).min(zs.len());
-    let whole = len / LANES * LANES;
-    let mut m = [f32::INFINITY; LANES];
-    let groups = xs[..whole]
-        .chunks_exact(LANES)
-        .zip(ys[..whole].chunks_exact(LANES))
-        .zip(zs[..whole].chunks_exact(LANES));
-    for ((x, y), z) in groups {
-        for k in 0..LANES {
-            let c = x[k] * a.x + y[k] * a.y + z[k] * a.z;
-            m[k] = if c < m[k] { c } else { m[k] };
-        }
-    }
-    let mut lowest = m.into_iter().fold(f32::INFINITY, |a, b| if b < a { b } else { a });
-    for i in whole..len {
-        let c = xs[i] * a.x + ys[i] * a.y + zs[i] * a.z;
-        lowest = if c < lowest { c } else { lowest };
-    }
-    lowest
-}
-
 /// Nodes with at least this many points run their passes in parallel: only the first levels
 /// of a large tree, where there are fewer nodes than cores.
 pub(super) const PARALLEL_PASS_POINTS: usize = 1 << 16;
 
-/// The sums of the coordinates and of the normals of `items`, in f64 (a million f32
-/// additions would lose the centroid's low bits) and in item order, so that the same items in
-/// the same order give the same bits.
-pub(super) fn sums(items: &[Item], normals: &[Vec3]) -> [f64; 6] {
-    // Six scalar sums, which the compiler keeps in registers (not so a DVec3 pair).
-    let mut s = [0.0f64; 6];
-    for it in items {
-        let (p, n) = (it.p, normals[it.id as usize]);
-        s[0] += f64::from(p.x);
-        s[1] += f64::from(p.y);
-        s[2] += f64::from(p.z);
-        s[3] += f64::from(n.x);
-        s[4] += f64::from(n.y);
-        s[5] += f64::from(n.z);
-    }
-    s
-}
-
 /// The first pass over a node's items: the columns of `cols`, the box of each block of
 /// [`BLOCK`] points (for nodes of more than one block) and the bounding box, which is
-/// returned; with `SUMS`, also [`sums`], in the same scan.
-pub(super) fn pass1<const SUMS: bool>(
-    items: &[Item],
-    normals: &[Vec3],
-    cols: &mut Columns,
-) -> ([f64; 6], (Vec3, Vec3)) {
+/// returned.
+pub(super) fn pass1(items: &[Item], cols: &mut Columns) -> (Vec3, Vec3) {
     let len = items.len();
     let blocks = len.div_ceil(BLOCK);
-    let mut s = [0.0f64; 6];
     let (mut lo, mut hi) = (items[0].p, items[0].p);
     let [px, py, pz] = &mut cols.p;
-    let [nx, ny, nz] = &mut cols.n;
     let columns = px[..len]
         .chunks_mut(BLOCK)
         .zip(py[..len].chunks_mut(BLOCK))
-        .zip(pz[..len].chunks_mut(BLOCK))
-        .zip(
-            nx[..len]
-                .chunks_mut(BLOCK)
-                .zip(ny[..len].chunks_mut(BLOCK))
-                .zip(nz[..len].chunks_mut(BLOCK)),
-        );
+        .zip(pz[..len].chunks_mut(BLOCK));
     let box_of_block = cols.blocks.chunks_exact_mut(6);
-    for ((chunk, (((px, py), pz), ((nx, ny), nz))), block_box) in items
+    for ((chunk, ((px, py), pz)), block_box) in items
         .chunks(BLOCK)
         .zip(columns)
         .zip(box_of_block.chain(std::iter::repeat_with(|| &mut [][..])))
     {
         let (mut block_lo, mut block_hi) = (chunk[0].p, chunk[0].p);
         let columns = px.iter_mut().zip(py.iter_mut()).zip(pz.iter_mut());
-        let columns = columns.zip(nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut()));
-        for (it, (((px, py), pz), ((nx, ny), nz))) in chunk.iter().zip(columns) {
-            let (p, n) = (it.p, normals[it.id as usize]);
+        for (it, ((px, py), pz)) in chunk.iter().zip(columns) {
+            let p = it.p;
             block_lo = block_lo.min(p);
             block_hi = block_hi.max(p);
-            if SUMS {
-                s[0] += f64::from(p.x);
-                s[1] += f64::from(p.y);
-                s[2] += f64::from(p.z);
-                s[3] += f64::from(n.x);
-                s[4] += f64::from(n.y);
-                s[5] += f64::from(n.z);
-            }
             (*px, *py, *pz) = (p.x, p.y, p.z);
-            (*nx, *ny, *nz) = (n.x, n.y, n.z);
         }
         if blocks > 1 {
             block_box[..3].copy_from_slice(&block_lo.to_array());
@@ -255,29 +195,32 @@ pub(super) fn pass1<const SUMS: bool>(
         lo = lo.min(block_lo);
         hi = hi.max(block_hi);
     }
-    (s, (lo, hi))
+    (lo, hi)
 }
 
-/// Bounding sphere and normal cone of `items` (not empty), in O(items). `cols` receives the
+/// The centroid of `items`, summed in f64 (a million f32 additions would lose its low bits)
+/// and in item order, so that the same items in the same order give the same bits.
+fn centroid(items: &[Item]) -> Vec3 {
+    // Three scalar sums, which the compiler keeps in registers.
+    let mut s = [0.0f64; 3];
+    for it in items {
+        s[0] += f64::from(it.p.x);
+        s[1] += f64::from(it.p.y);
+        s[2] += f64::from(it.p.z);
+    }
+    (DVec3::from_array(s) / items.len() as f64).as_vec3()
+}
+
+/// Bounding sphere and split axis of `items` (not empty), in O(items). `cols` receives the
 /// items' coordinates.
-pub(super) fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
+pub(super) fn fit(items: &[Item], cols: &mut Columns) -> Fit {
     let len = items.len();
     let blocks = len.div_ceil(BLOCK);
-    // Pass 1, block by block: the bounding box, and each block's; the sums for the centroid
-    // and the mean normal; and the columns for the passes after it. A large node (the first
-    // few levels, where the other core may have nothing else to do) runs the sums, which must
-    // stay one sequential scan, beside the rest.
-    let (sums, (lo, hi)) = if len >= PARALLEL_PASS_POINTS {
-        let (s, (_, bbox)) = rayon::join(|| sums(items, normals), || pass1::<false>(items, normals, cols));
-        (s, bbox)
-    } else {
-        pass1::<true>(items, normals, cols)
-    };
-    let sum_p = DVec3::new(sums[0], sums[1], sums[2]);
-    let sum_n = DVec3::new(sums[3], sums[4], sums[5]);
+    // Pass 1, block by block: the bounding box, and each block's, and the columns for the
+    // passes after it.
+    let (lo, hi) = pass1(items, cols);
     let (p, rest) = (&cols.p, &mut *cols.blocks);
     let p: [&[f32]; 3] = [&p[0][..len], &p[1][..len], &p[2][..len]];
-    let normal_cols: [&[f32]; 3] = [&cols.n[0][..len], &cols.n[1][..len], &cols.n[2][..len]];
     let (boxes, block_far) = rest.split_at_mut(if blocks > 1 { 6 * blocks } else { 0 });
     // The first points on the box's faces, found after the box rather than tracked through
     // pass 1 (an index update per face and point costs more than reading the first block at
@@ -300,24 +243,7 @@ pub(super) fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
     let arg_hi: [usize; 3] = std::array::from_fn(|a| first_of(3 + a, hi[a]));
     let lo = Vec3::from_array(std::array::from_fn(|a| p[a][arg_lo[a]]));
     let hi = Vec3::from_array(std::array::from_fn(|a| p[a][arg_hi[a]]));
-    let n = len as f64;
     let extent = hi - lo;
-    let split_axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
-
-    let mean_n = sum_n / n;
-    // The mean of unit normals that nearly cancel has no direction worth keeping: the cone is
-    // then at least a hemisphere anyway.
-    let cone_axis = if mean_n.length() > 1e-9 {
-        mean_n.normalize().as_vec3()
-    } else {
-        Vec3::ZERO
-    };
 
     // Starting core set: the extreme points, which pin the box's faces.
     let mut core = reference::GrowingBall::<CORE_SET_CAPACITY>::new();
@@ -332,44 +258,25 @@ pub(super) fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
     }
     let mut ball = core.ball();
 
-    // Pass 2: the farthest point from each candidate centre, and the smallest normal cosine.
-    let candidates = [lo * 0.5 + hi * 0.5, (sum_p / n).as_vec3(), ball.center.as_vec3()];
-    let ((f0, f1), (f2, min_cos)) = if len >= PARALLEL_PASS_POINTS {
-        rayon::join(
-            || rayon::join(|| farthest(p, candidates[0]), || farthest(p, candidates[1])),
-            || {
-                rayon::join(
-                    || farthest_by_block(p, candidates[2], block_far),
-                    || min_cos(normal_cols, cone_axis),
-                )
-            },
-        )
-    } else {
-        (
-            (farthest(p, candidates[0]), farthest(p, candidates[1])),
-            (
-                farthest_by_block(p, candidates[2], block_far),
-                min_cos(normal_cols, cone_axis),
-            ),
-        )
-    };
-    let far2 = [f0, f1, f2];
-    let (mut best, mut best_far2) = (candidates[0], far2[0]);
-    for (&c, &f) in candidates.iter().zip(&far2).skip(1) {
-        if f < best_far2 {
-            (best, best_far2) = (c, f);
-        }
-    }
+    // Pass 2: the farthest point from the core ball's centre.
+    let core_start = ball.center.as_vec3();
+    let f2 = farthest_by_block(p, core_start, block_far);
+    let (mut best, mut best_far2) = (core_start, f2);
 
     // Core-set steps: add the farthest point from the core ball's centre and take the new core
     // set's minimal ball. Each step's ball is at least as large as the last and approaches the
     // minimal sphere of all points from below, while its farthest point approaches it from above.
-    let (mut core_centre, mut core_far2) = (candidates[2], far2[2]);
-    for _ in 0..CORE_SET_STEPS {
+    let (mut core_centre, mut core_far2) = (core_start, f2);
+    let mut converged = false;
+    for step in 0..=CORE_SET_STEPS {
         // The farthest point inside the core ball (up to f32 rounding of the centre) means the
         // core ball already holds everything: it is the minimal sphere. Otherwise it is away
         // from the centre (`core_far2 > 0`), so it exists.
         if f64::from(core_far2).sqrt() <= ball.radius * (1.0 + 1e-6) {
+            converged = true;
+            break;
+        }
+        if step == CORE_SET_STEPS {
             break;
         }
         let core_far = first_at(p, core_centre, core_far2, block_far);
@@ -381,26 +288,37 @@ pub(super) fn fit(items: &[Item], normals: &[Vec3], cols: &mut Columns) -> Fit {
             (best, best_far2) = (core_centre, core_far2);
         }
     }
+    // Short of the minimal sphere, two more cheap centres may still do better: the bounding
+    // box's centre and the centroid. Once the core ball holds every point it is minimal, and
+    // they cannot, so their passes are skipped.
+    if !converged {
+        let others = [lo * 0.5 + hi * 0.5, centroid(items)];
+        let (f0, f1) = if len >= PARALLEL_PASS_POINTS {
+            rayon::join(|| farthest(p, others[0]), || farthest(p, others[1]))
+        } else {
+            (farthest(p, others[0]), farthest(p, others[1]))
+        };
+        for (c, f) in others.into_iter().zip([f0, f1]) {
+            if f < best_far2 {
+                (best, best_far2) = (c, f);
+            }
+        }
+    }
 
     // sqrt is correctly rounded and monotonic, so sqrt(max d²) is the largest f32 `length()`;
     // the bump of a few ulps covers re-checks by `length_squared() <= radius²` and by other
     // roundings of the same distance; the absolute term only matters for subnormal radii.
     let radius = best_far2.sqrt() * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE;
-    let cone_cos = if cone_axis == Vec3::ZERO {
-        -1.0
+    let split_axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
     } else {
-        let c = min_cos - 2.0 * f32::EPSILON;
-        if c < 0.0 {
-            -1.0
-        } else {
-            c.min(1.0)
-        }
+        2
     };
     Fit {
         center: best,
         radius,
-        cone_axis,
-        cone_cos,
         split_axis,
     }
 }

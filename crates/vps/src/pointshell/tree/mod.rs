@@ -20,6 +20,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 mod build;
+mod cone;
 mod fit;
 pub mod reference;
 mod tightness;
