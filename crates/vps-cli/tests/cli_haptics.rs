@@ -388,3 +388,42 @@ fn bench_builtin_needs_no_input() {
     let o = vps(&["haptics-bench", "--builtin", "--points", "1e12"]);
     assert_clean_failure(&o, "--points");
 }
+
+/// `--tilted-box` reports, per tilt, what the library's slide measures (the CLI is a thin
+/// layer: same scene, same numbers), plots one panel per tilt, and refuses a bad tilt.
+#[test]
+fn bench_slides_on_a_tilted_box() {
+    use vps::synth::slide::{slide_on_tilted_box, SlideParams};
+    let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("slide.png");
+    let j = json(&vps(&[
+        "haptics-bench",
+        "--tilted-box",
+        "--tilts",
+        "0,30",
+        "--plot",
+        p(&plot),
+        "--json",
+    ]));
+    let slides = j["slides"].as_array().unwrap();
+    assert_eq!(slides.len(), 2);
+    for (s, tilt) in slides.iter().zip([0.0, 30.0]) {
+        let expected = slide_on_tilted_box(
+            &SlideParams {
+                tilt_degrees: tilt,
+                ..Default::default()
+            },
+            &ContactParams::default(),
+        )
+        .unwrap();
+        assert_eq!(s["tilt_degrees"].as_f64(), Some(tilt));
+        assert_eq!(s["forces"].as_array().unwrap().len(), 101);
+        assert!(expected.mean_force > 0.0);
+        assert_eq!(s["mean_force"].as_f64(), Some(expected.mean_force));
+        assert_eq!(s["std_over_mean"].as_f64(), Some(expected.std_over_mean));
+    }
+    assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
+
+    let o = vps(&["haptics-bench", "--tilted-box", "--tilts", "0,nan"]);
+    assert_clean_failure(&o, "--tilts");
+}

@@ -20,17 +20,18 @@ use crate::inputs::{open_cached_voxmap, open_pointshell};
 mod builtin;
 mod figures;
 mod report;
+mod tilted;
 
 use figures::{figures, replay};
 
 /// Arguments of `vps haptics-bench`.
 #[derive(Args, Debug)]
 pub struct HapticsBenchArgs {
-    /// The voxmap (.vxm) of the static object (not with --builtin).
-    #[arg(required_unless_present = "builtin", conflicts_with = "builtin")]
+    /// The voxmap (.vxm) of the static object (not with --builtin or --tilted-box).
+    #[arg(required_unless_present_any = ["builtin", "tilted_box"], conflicts_with_all = ["builtin", "tilted_box"])]
     pub voxmap: Option<PathBuf>,
-    /// The pointshell (.vps) of the moving object (not with --builtin).
-    #[arg(required_unless_present = "builtin", conflicts_with = "builtin")]
+    /// The pointshell (.vps) of the moving object (not with --builtin or --tilted-box).
+    #[arg(required_unless_present_any = ["builtin", "tilted_box"], conflicts_with_all = ["builtin", "tilted_box"])]
     pub pointshell: Option<PathBuf>,
     /// Replay these poses: one "tx ty tz qw qx qy qz" per line, # comments.
     #[arg(long, conflicts_with = "sweep")]
@@ -80,6 +81,19 @@ pub struct HapticsBenchArgs {
     /// With --builtin: keep the built files in this directory instead of a temporary one.
     #[arg(long, requires = "builtin")]
     pub out_dir: Option<PathBuf>,
+    /// Instead of replaying poses, slide a radius-5 sphere's pointshell one voxel deep along
+    /// the top face of a box tilted about y by each of --tilts, and report how the force
+    /// varies: the yardstick of contact quality. Built in memory; no input file.
+    #[arg(long, conflicts_with_all = ["builtin", "trajectory", "sweep", "plunge", "brute_force", "budget_us"])]
+    pub tilted_box: bool,
+    /// With --tilted-box: the tilts, in degrees, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,17,30,45",
+        allow_negative_numbers = true
+    )]
+    pub tilts: Vec<f64>,
 }
 
 /// Most queries one bench may run (poses × repeat): each keeps a few numbers for the figures.
@@ -87,6 +101,9 @@ const MAX_QUERIES: usize = 10_000_000;
 
 /// Check the arguments, get the files, replay the poses and report.
 pub fn run(a: HapticsBenchArgs) -> Result<()> {
+    if a.tilted_box {
+        return tilted::run(&a);
+    }
     let params = contact_params(a.stiffness, a.budget_us)?;
     if a.repeat == 0 {
         bail!("--repeat must be at least 1");

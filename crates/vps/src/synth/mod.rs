@@ -1,4 +1,5 @@
-//! A reproducible car-scale test scene: `vps scene synth`.
+//! Reproducible synthetic scenes: the car-scale test scene of `vps scene synth`, and the
+//! tilted-box slide that measures contact quality ([`slide`]).
 //!
 //! [`synth_car`] builds, from a seed, a multi-object mesh in millimetres with the structure
 //! that makes real car assemblies hard to voxelize:
@@ -37,6 +38,7 @@ use crate::storage::StorageError;
 
 mod car;
 mod parts;
+pub mod slide;
 
 use car::Scene;
 

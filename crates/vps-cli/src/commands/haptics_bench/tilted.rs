@@ -1,0 +1,97 @@
+//! `vps haptics-bench --tilted-box`: the sliding scene of [`vps::synth::slide`], one slide per
+//! tilt, its figures as a table or JSON, and ‖F‖ along each slide as a plot.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use serde_json::json;
+
+use vps::synth::slide::{slide_on_tilted_box, SlideFigures, SlideParams};
+
+use super::HapticsBenchArgs;
+use crate::args::contact_params;
+use crate::render::{plot_series_png, Series, SERIES_COLOURS};
+
+/// Slide at each of `--tilts` and report.
+pub fn run(a: &HapticsBenchArgs) -> Result<()> {
+    let params = contact_params(a.stiffness, None)?;
+    if a.tilts.is_empty() || a.tilts.iter().any(|t| !t.is_finite()) {
+        bail!("--tilts must be a comma-separated list of angles in degrees");
+    }
+    let scene = SlideParams::default();
+    let mut slides = Vec::with_capacity(a.tilts.len());
+    for &tilt in &a.tilts {
+        let p = SlideParams {
+            tilt_degrees: tilt,
+            ..scene
+        };
+        slides.push(slide_on_tilted_box(&p, &params).with_context(|| format!("sliding on the box tilted by {tilt}°"))?);
+    }
+    if let Some(plot) = &a.plot {
+        write_plot(plot, &slides)?;
+    }
+    if a.json {
+        let j = json!({
+            "scene": {
+                "box_voxel": scene.box_voxel,
+                "sphere_voxel": scene.sphere_voxel,
+                "sphere_radius": scene.sphere_radius,
+                "depth": scene.depth,
+                "travel": scene.travel,
+                "step": scene.step,
+                "layers": scene.layers,
+            },
+            "stiffness": params.stiffness,
+            "slides": slides,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        println!(
+            "tilted-box slide: sphere of radius {} (pointshell voxels {}) held {} deep in a box's voxmap \
+             (voxels {}, {} layers), slid {} in steps of {}",
+            scene.sphere_radius,
+            scene.sphere_voxel,
+            scene.depth,
+            scene.box_voxel,
+            scene.layers,
+            scene.travel,
+            scene.step
+        );
+        println!("| tilt | mean ‖F‖ | std / mean | (max − min) / mean | largest change between poses | direction error | points in contact |");
+        println!("|---:|---:|---:|---:|---:|---:|---:|");
+        for s in &slides {
+            println!(
+                "| {}° | {:.2} | {:.2} % | {:.1} % | {:.1} % | {:.2}° | {:.0} |",
+                s.tilt_degrees,
+                s.mean_force,
+                100.0 * s.std_over_mean,
+                100.0 * s.spread_over_mean,
+                100.0 * s.largest_step_change_over_mean,
+                s.max_direction_error_degrees,
+                s.mean_points_in_contact
+            );
+        }
+    }
+    Ok(())
+}
+
+/// One panel per tilt: ‖F‖ over the poses of its slide.
+fn write_plot(plot: &Path, slides: &[SlideFigures]) -> Result<()> {
+    let labels: Vec<String> = slides
+        .iter()
+        .map(|s| format!("|F| on the box tilted by {}°", s.tilt_degrees))
+        .collect();
+    let series: Vec<Series> = slides
+        .iter()
+        .zip(&labels)
+        .enumerate()
+        .map(|(i, (s, label))| Series {
+            label,
+            values: &s.forces,
+            colour: SERIES_COLOURS[i % SERIES_COLOURS.len()],
+        })
+        .collect();
+    crate::interrupt::clean_beside(plot)?;
+    plot_series_png("vps haptics-bench --tilted-box", "pose along the slide", &series, plot)
+        .with_context(|| format!("writing plot {}", plot.display()))
+}
