@@ -5,6 +5,7 @@
 //! 3. [`crate::voxmap::layers`]: chessboard distance layers around the surface;
 //! 4. signed values per brick; uniform bricks become tiles.
 
+pub mod distance;
 pub mod inside;
 pub mod navigate;
 pub mod pointshell;
