@@ -1,24 +1,17 @@
-//! The distances of the layers' voxels to the mesh against the brute force over every
-//! triangle, on closed shapes, polygon soups and faces lying on voxel faces.
+//! The distances of the layers' voxels to the mesh, clamped to the reach, against the brute
+//! force over every triangle: on closed shapes, polygon soups and faces lying on voxel faces.
 
 use glam::DVec3;
-use vps::generate::distance::layer_distances;
+use vps::generate::distance::{layer_distances, reach};
 use vps::geometry::closest::closest_point;
 use vps::grid::{local_index, BRICK, BRICK_SHIFT};
-use vps::shapes;
+use vps::shapes::{self, SplitMix};
 use vps::{voxelize, Mesh, Triangle, VoxelizeParams};
 
-/// How the fast distances compare with the brute force on one mesh.
-#[derive(Debug)]
-struct Agreement {
-    voxels: usize,
-    exact: usize,
-    max_error: f64,
-}
-
-/// Voxelize `tris` and compare every voxel of the layers with the brute force: the distance from
-/// its centre to the nearest triangle, by the closest-point kernel over all of them.
-fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
+/// Voxelize `tris` and compare every voxel of the layers with the brute force (the distance
+/// from its centre to the nearest triangle, by the closest-point kernel over all of them), both
+/// clamped to the reach; the number of voxels compared.
+fn compare(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> usize {
     let mesh = Mesh::from_triangles("m", tris).unwrap();
     let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(voxel_size, layers)).unwrap();
     let grid = *vm.grid();
@@ -28,66 +21,39 @@ fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
         .map(|t| t.map(|p| grid.to_grid_units(p)))
         .collect();
     let fast = layer_distances(&mesh, &vm);
+    let reach = reach(layers);
     assert_eq!(fast.bricks.len(), vm.bricks().len());
-    let mut a = Agreement {
-        voxels: 0,
-        exact: 0,
-        max_error: 0.0,
-    };
+    let mut voxels = 0;
     for (brick, dist) in vm.bricks().iter().zip(&fast.bricks) {
         let b = grid.brick_coords(brick.key);
         for z in 0..BRICK {
             for y in 0..BRICK {
                 for x in 0..BRICK {
                     let l = local_index(x, y, z);
-                    let value = brick.values[l] as i32;
                     let d = dist[l] as f64;
-                    if value.abs() > layers as i32 {
+                    if (brick.values[l] as i32).abs() > layers as i32 {
                         assert_eq!(d, f64::INFINITY, "beyond the layers");
                         continue;
                     }
-                    let v = [
-                        (b[0] << BRICK_SHIFT) + x,
-                        (b[1] << BRICK_SHIFT) + y,
-                        (b[2] << BRICK_SHIFT) + z,
-                    ];
-                    let c = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
+                    let v = [b[0], b[1], b[2]].map(|c| c << BRICK_SHIFT);
+                    let c = DVec3::new((v[0] + x) as f64, (v[1] + y) as f64, (v[2] + z) as f64) + 0.5;
                     let brute = tris
                         .iter()
                         .map(|t| closest_point(c, t).dist_sq)
                         .fold(f64::INFINITY, f64::min)
                         .sqrt();
-                    // Each fast distance is a distance to a real triangle: never below the
-                    // nearest, but for the f32 it is kept in.
+                    // Equal once clamped, but for the f32 the distance is kept in.
+                    let (d, brute) = (d.min(reach), brute.min(reach));
                     assert!(
-                        d >= brute - 1e-5 * (1.0 + brute),
-                        "voxel {v:?}: {d} below the brute force {brute}"
+                        (d - brute).abs() <= 1e-5 * (1.0 + brute),
+                        "voxel at {c}: {d} against the brute force's {brute}"
                     );
-                    a.voxels += 1;
-                    let err = d - brute;
-                    if err > 0.5 && std::env::var("DBG").is_ok() {
-                        eprintln!("voxel {v:?} value {value} fast {d} brute {brute}");
-                    }
-                    a.exact += (err <= 1e-5 * (1.0 + brute)) as usize;
-                    a.max_error = a.max_error.max(err);
+                    voxels += 1;
                 }
             }
         }
     }
-    a
-}
-
-fn check(name: &str, a: Agreement, min_exact: f64, max_error: f64) {
-    let share = a.exact as f64 / a.voxels as f64;
-    println!(
-        "{name}: {} voxels, {:.4} % exact, largest excess {:.4} voxel",
-        a.voxels,
-        100.0 * share,
-        a.max_error
-    );
-    assert!(a.voxels > 0);
-    assert!(share >= min_exact, "{name}: only {share} exact");
-    assert!(a.max_error <= max_error, "{name}: excess {}", a.max_error);
+    voxels
 }
 
 #[test]
@@ -114,38 +80,26 @@ fn layer_distances_match_the_brute_force_on_shapes_and_soups() {
         }),
     ];
     for (name, tris) in cases {
-        check(name, agreement(tris, 0.25, 4), 0.995, 0.05);
+        let voxels = compare(tris, 0.25, 4);
+        println!("{name}: {voxels} voxels, all equal to the brute force");
+        assert!(voxels > 1000, "{name}");
     }
 }
 
-/// Random soups of scattered triangles, at random voxel sizes and layer counts: the hard case,
-/// since triangles share no vertex and a triangle that wins only in a thin sliver between two
-/// others can be missed. Measured over these 300 soups: 0.013 % of the voxels miss their nearest triangle, by at
-/// most 0.72 voxel.
+/// Random soups of scattered triangles, at random voxel sizes and layer counts.
 #[test]
-fn layer_distances_nearly_match_the_brute_force_on_random_soups() {
-    let mut rng = vps::shapes::SplitMix(11);
-    let (mut voxels, mut exact, mut worst) = (0usize, 0usize, 0.0f64);
+fn layer_distances_match_the_brute_force_on_random_soups() {
+    let mut rng = SplitMix(11);
+    let mut voxels = 0;
     for _ in 0..300 {
         let count = 1 + rng.below(40) as usize;
         let voxel = rng.range(0.15, 0.6);
         let layers = 1 + rng.below(4) as u8;
-        let a = agreement(
-            vps::shapes::scattered_triangles(count, 4.0, 1.2, rng.next_u64()),
+        voxels += compare(
+            shapes::scattered_triangles(count, 4.0, 1.2, rng.next_u64()),
             voxel,
             layers,
         );
-        voxels += a.voxels;
-        exact += a.exact;
-        worst = worst.max(a.max_error);
     }
-    let share = exact as f64 / voxels as f64;
-    println!(
-        "300 soups: {voxels} voxels, {} not exact ({:.5} %), largest excess {worst:.4} voxel",
-        voxels - exact,
-        100.0 * (1.0 - share)
-    );
-    // Measured: 160 of 1,186,549 voxels (0.013 %), largest excess 0.72 voxel.
-    assert!(share >= 0.9995, "{share}");
-    assert!(worst <= 1.0, "{worst}");
+    println!("300 soups: {voxels} voxels, all equal to the brute force");
 }
