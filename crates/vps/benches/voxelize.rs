@@ -1,5 +1,5 @@
 //! Benchmarks of generation: the navigations side by side at coarse and fine resolution, the
-//! flood fill, the layers, and the whole pipeline. Run with `cargo bench --bench voxelize`.
+//! flood fill, the layers, the whole pipeline, and the distances of the layers' voxels. Run with `cargo bench --bench voxelize`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::DVec3;
@@ -118,6 +118,27 @@ fn pipeline(c: &mut Criterion) {
     g.finish();
 }
 
+/// The distances of the layers' voxels against the voxmap they belong to, in one run: what
+/// the exact distance adds to generation.
+fn layer_distances(c: &mut Criterion) {
+    let mesh: Mesh = shapes::demo_assembly();
+    let mut g = c.benchmark_group("layer_distances");
+    g.sample_size(10);
+    let params = VoxelizeParams {
+        voxel_size: 0.5,
+        layers: 5,
+        ..Default::default()
+    };
+    let (vm, _) = voxelize(&mesh, &params).unwrap();
+    g.bench_function("demo_assembly/voxelize", |b| {
+        b.iter(|| black_box(voxelize(&mesh, &params).unwrap()))
+    });
+    g.bench_function("demo_assembly/distances", |b| {
+        b.iter(|| black_box(vps::generate::distance::layer_distances(&mesh, &vm)))
+    });
+    g.finish();
+}
+
 /// The same synthetic car written to a file in memory and out of core (one slab and thin
 /// slabs), both fills: the cost of bounded memory, as ratios in one run.
 fn out_of_core(c: &mut Criterion) {
@@ -168,6 +189,7 @@ criterion_group!(
     fill_and_layers,
     sparse_vs_dense,
     pipeline,
+    layer_distances,
     out_of_core
 );
 criterion_main!(benches);
