@@ -28,6 +28,14 @@ pub fn sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Vec<Tria
     t
 }
 
+/// Rings for [`sphere`] (with twice as many segments) of a sphere of `radius_voxels` whose
+/// facets stray at most about `sag_voxels` from the true sphere; 16 to 1024.
+pub fn sphere_rings(radius_voxels: f64, sag_voxels: f64) -> u32 {
+    let sag = (sag_voxels / radius_voxels.max(1.0)).min(1.0);
+    let step = (1.0 - sag).acos();
+    ((std::f64::consts::PI / step).ceil() as u32).clamp(16, 1024)
+}
+
 /// A closed torus around the z axis: `major` is the distance from the centre to the tube's
 /// centre line, `minor` the tube's radius.
 pub fn torus(center: DVec3, major: f64, minor: f64, n_major: u32, n_minor: u32) -> Vec<Triangle> {
@@ -197,5 +205,18 @@ impl SplitMix {
     /// A uniform number in [lo, hi) in `f32`.
     pub fn range_f32(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.unit_f32()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_tessellation_is_fine_enough() {
+        assert_eq!(sphere_rings(0.5, 0.02), 16);
+        let r = sphere_rings(500.0, 0.02);
+        let sag = 500.0 * (1.0 - (std::f64::consts::PI / r as f64).cos());
+        assert!(sag <= 0.02 + 1e-9 && r <= 1024, "{r} {sag}");
     }
 }

@@ -23,11 +23,11 @@ use rustc_hash::FxHashMap;
 
 use crate::geometry::closest::closest_point;
 use crate::grid::{local_index, BRICK_SHIFT, BRICK_VOXELS};
+use crate::mesh::Mesh;
+use crate::voxmap::Voxmap;
 
 /// Edge of the blocks of voxels that share a list of candidate triangles: half a brick.
 const SUB: u32 = 4;
-use crate::mesh::Mesh;
-use crate::voxmap::Voxmap;
 
 /// How far from the mesh distances are exact, in voxels, for a voxmap of `layers` layers: half
 /// a voxel beyond the last layer's centres on an axis. Beyond it a distance is only known to be

@@ -118,8 +118,8 @@ pub fn slide_on_tilted_box(params: &SlideParams, contact_params: &ContactParams)
     let (voxmap, _) = voxelize(&box_mesh, &VoxelizeParams::new(p.box_voxel, p.layers))?;
     let voxmap = CachedVoxmap::in_memory(voxmap);
 
-    // Rings such that the facets stray under 1 % of a pointshell voxel from the sphere.
-    let rings = sphere_rings(p.sphere_radius / p.sphere_voxel);
+    // Facets within 1 % of a pointshell voxel of the sphere.
+    let rings = shapes::sphere_rings(p.sphere_radius / p.sphere_voxel, 0.01);
     let sphere_mesh = Mesh::from_triangles("sphere", shapes::sphere(DVec3::ZERO, p.sphere_radius, rings, 2 * rings))?;
     let (sphere_map, _) = voxelize(&sphere_mesh, &VoxelizeParams::new(p.sphere_voxel, p.layers))?;
     let (shell, _) = pointshell(&sphere_mesh, &sphere_map, LEAF_SIZE)?;
@@ -143,12 +143,6 @@ pub fn slide_on_tilted_box(params: &SlideParams, contact_params: &ContactParams)
         points += c.points_in_contact;
     }
     Ok(figures(p.tilt_degrees, forces, points, worst_angle))
-}
-
-/// Rings of a UV sphere of `radius_voxels` whose facets stray at most 0.01 voxel from it.
-fn sphere_rings(radius_voxels: f64) -> u32 {
-    let sag = (0.01 / radius_voxels.max(1.0)).min(1.0);
-    ((std::f64::consts::PI / (1.0 - sag).acos()).ceil() as u32).clamp(16, 1024)
 }
 
 /// The figures of a slide from its forces.

@@ -23,13 +23,8 @@ pub struct Built {
     pub info: Value,
 }
 
-/// Rings of a UV sphere of `radius_voxels` whose facets stray at most about 0.02 voxel from
-/// the true sphere (segments are twice the rings).
-fn sphere_rings(radius_voxels: f64) -> u32 {
-    let sag = (0.02 / radius_voxels.max(1.0)).min(1.0);
-    let step = (1.0 - sag).acos();
-    ((std::f64::consts::PI / step).ceil() as u32).clamp(16, 1024)
-}
+/// Largest distance, in voxels, between the built spheres' facets and the true sphere.
+const SPHERE_SAG_VOXELS: f64 = 0.02;
 
 /// Pointshell points (one per surface voxel) of a voxelized sphere per `area / voxel_size²`:
 /// the SAT surface is thicker than one voxel where it runs diagonally. Measured with this
@@ -41,7 +36,7 @@ const BUILTIN_LAYERS: u8 = 5;
 
 /// A UV sphere at the origin, tessellated finely enough for voxels of `voxel_size`.
 fn sphere_mesh(name: &str, radius: f64, voxel_size: f64) -> Result<Mesh> {
-    let rings = sphere_rings(radius / voxel_size);
+    let rings = vps::shapes::sphere_rings(radius / voxel_size, SPHERE_SAG_VOXELS);
     Ok(Mesh::from_triangles(
         name,
         vps::shapes::sphere(DVec3::ZERO, radius, rings, 2 * rings),
@@ -138,17 +133,4 @@ pub fn build_builtin(dir: &Path, points: f64, grid_voxels: f64) -> Result<Built>
         seconds: start.elapsed().as_secs_f64(),
         info,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sphere_tessellation_is_fine_enough() {
-        assert_eq!(sphere_rings(0.5), 16);
-        let r = sphere_rings(500.0);
-        let sag = 500.0 * (1.0 - (std::f64::consts::PI / r as f64).cos());
-        assert!(sag <= 0.02 + 1e-9 && r <= 1024, "{r} {sag}");
-    }
 }
