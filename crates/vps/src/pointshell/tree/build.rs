@@ -69,10 +69,9 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
     let (root, rest) = nodes.split_first_mut().expect("at least one node");
     let mut buffer = vec![0.0f32; 4 * items.len()];
     let cols = Columns::new(&mut buffer, items.len());
-    let shared = Shared { leaf: leaf_size };
-    build_node(&mut items, cols, &shared, 0, 0, root, rest, 1);
+    build_node(&mut items, cols, leaf_size, 0, 0, root, rest, 1);
     let order: Vec<u32> = items.par_iter().map(|it| it.id).collect();
-    set_cones(&mut nodes, &reorder(normals, &order));
+    set_cones(&mut nodes, normals, &order);
     let tree = SphereTree {
         nodes,
         leaf_size: leaf_bound,
@@ -119,26 +118,20 @@ pub(super) fn subtree_nodes(n: usize, leaf: usize) -> usize {
     }
 }
 
-/// What every node of one build reads.
-pub(super) struct Shared {
-    /// Largest number of points in a leaf.
-    pub(super) leaf: usize,
-}
-
-/// Builds the subtree over `items` into `node` and its descendants' block `desc`, which starts at
-/// node index `desc_base` and holds exactly `subtree_nodes(items.len()) - 1` nodes.
+/// Builds the subtree over `items`, with at most `leaf` points a leaf, into `node` and its
+/// descendants' block `desc`, which starts at node index `desc_base` and holds exactly
+/// `subtree_nodes(items.len(), leaf) - 1` nodes.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn build_node(
     items: &mut [Item],
     cols: Columns,
-    shared: &Shared,
+    leaf: usize,
     point_start: u32,
     depth: u32,
     node: &mut SphereNode,
     desc: &mut [SphereNode],
     desc_base: u32,
 ) {
-    let leaf = shared.leaf;
     let mut cols = cols;
     let fit = fit(items, &mut cols);
     *node = SphereNode {
@@ -182,7 +175,7 @@ pub(super) fn build_node(
         build_node(
             left_items,
             left_cols,
-            shared,
+            leaf,
             point_start,
             depth + 1,
             left,
@@ -194,7 +187,7 @@ pub(super) fn build_node(
         build_node(
             right_items,
             right_cols,
-            shared,
+            leaf,
             right_start,
             depth + 1,
             right,

@@ -6,14 +6,15 @@ use super::fit::fold_lanes;
 use super::*;
 
 /// Sets `cone_axis` and `cone_cos` of every node: the mean of its normals, and the smallest
-/// cosine to it lowered by two ulps (-1 when that is below 0 or the mean vanishes).
-/// `normals` are in tree order.
+/// cosine to it lowered by two ulps (-1 when that is below 0 or the mean vanishes). Point `i`
+/// of the tree has normal `normals[order[i]]`.
 ///
-/// The sums are built bottom-up in f64: a leaf sums its normals in order, a parent adds its
-/// children's sums (children come after their parent in `nodes`), so each normal is read once.
-/// The smallest cosine is then measured exactly against the axis as stored.
-pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3]) {
-    let n = normals.len();
+/// The normals are gathered once, in tree order, into columns. The sums are built bottom-up in
+/// f64: a leaf sums its normals in order, a parent adds its children's sums (children come
+/// after their parent in `nodes`), so each normal is read once. The smallest cosine is then
+/// measured exactly against the axis as stored.
+pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3], order: &[u32]) {
+    let n = order.len();
     let mut buffer = vec![0.0f32; 3 * n];
     {
         let (xs, rest) = buffer.split_at_mut(n);
@@ -21,8 +22,11 @@ pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3]) {
         xs.par_iter_mut()
             .zip(ys)
             .zip(zs)
-            .zip(normals)
-            .for_each(|(((x, y), z), v)| (*x, *y, *z) = (v.x, v.y, v.z));
+            .zip(order)
+            .for_each(|(((x, y), z), &i)| {
+                let v = normals[i as usize];
+                (*x, *y, *z) = (v.x, v.y, v.z);
+            });
     }
     let (xs, rest) = buffer.split_at(n);
     let (ys, zs) = rest.split_at(n);
@@ -30,7 +34,10 @@ pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3]) {
     for i in (0..nodes.len()).rev() {
         sums[i] = match nodes[i].children() {
             Some([l, r]) => sums[l] + sums[r],
-            None => normals[nodes[i].points()].iter().map(|v| v.as_dvec3()).sum(),
+            None => nodes[i]
+                .points()
+                .map(|j| DVec3::new(xs[j] as f64, ys[j] as f64, zs[j] as f64))
+                .sum(),
         };
     }
     nodes.par_iter_mut().zip(&sums).for_each(|(node, sum)| {
