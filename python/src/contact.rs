@@ -82,7 +82,11 @@ pub(crate) fn contact(
         }
         s => s.map(Duration::from_secs_f64),
     };
-    let params = ContactParams { stiffness, budget };
+    let params = ContactParams {
+        stiffness,
+        budget,
+        ..Default::default()
+    };
     let c = py.detach(|| query(voxmap, shell, &pose, &params)).or_raise()?;
     Ok(PyContact {
         force: c.force.to_array(),

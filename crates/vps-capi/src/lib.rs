@@ -303,7 +303,11 @@ pub unsafe extern "C" fn vps_contact(
         let pose =
             Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))?;
         let budget = budget_of(budget_us).map_err(|m| (VPS_ERR_PARAM, m))?;
-        let params = ContactParams { stiffness, budget };
+        let params = ContactParams {
+            stiffness,
+            budget,
+            ..Default::default()
+        };
         let c = contact(voxmap, shell, &pose, &params).map_err(|e| {
             let code = match e {
                 HapticsError::Storage(_) => VPS_ERR_STORAGE,

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::ValueEnum;
 
 use vps::generate::Navigation;
-use vps::{ContactParams, VoxelizeParams};
+use vps::{ContactParams, Penetration, VoxelizeParams};
 
 /// `--navigation`: how candidate voxels are chosen in each triangle's bounding box.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -46,14 +46,35 @@ pub fn voxelize_params(voxel_size: f64, layers: u32, navigation: Navigation) -> 
     })
 }
 
-/// Haptic query parameters from `--stiffness` and `--budget-us`.
-pub fn contact_params(stiffness: f64, budget_us: Option<u64>) -> Result<ContactParams> {
+/// `--penetration`: how deep a point in contact is (`docs/HAPTICS.md`).
+#[derive(Clone, Copy, Debug, Default, ValueEnum)]
+pub enum PenetrationArg {
+    /// The interpolated sub-voxel signed distance (a voxmap without distances falls back to
+    /// layers).
+    #[default]
+    Distance,
+    /// The paper's layer depth plus the distance to the voxel centre's tangent plane.
+    Layers,
+}
+
+impl From<PenetrationArg> for Penetration {
+    fn from(p: PenetrationArg) -> Penetration {
+        match p {
+            PenetrationArg::Distance => Penetration::Distance,
+            PenetrationArg::Layers => Penetration::Layers,
+        }
+    }
+}
+
+/// Haptic query parameters from `--stiffness`, `--budget-us` and `--penetration`.
+pub fn contact_params(stiffness: f64, budget_us: Option<u64>, penetration: PenetrationArg) -> Result<ContactParams> {
     if !(stiffness.is_finite() && stiffness >= 0.0) {
         bail!("--stiffness must be a finite number >= 0, got {stiffness}");
     }
     Ok(ContactParams {
         stiffness,
         budget: budget_us.map(Duration::from_micros),
+        penetration: penetration.into(),
     })
 }
 

@@ -124,6 +124,7 @@ fn contact_json_has_the_fields_and_matches_the_library() {
         &ContactParams {
             stiffness: 2.5,
             budget: None,
+            ..Default::default()
         },
     )
     .unwrap();

@@ -46,7 +46,7 @@ pub use generate::pointshell::pointshell;
 pub use generate::{voxelize, Fill, VoxelizeParams};
 pub use geometry::Pose;
 pub use grid::Grid;
-pub use haptics::{contact, CachedVoxmap, Contact, ContactParams};
+pub use haptics::{contact, CachedVoxmap, Contact, ContactParams, Penetration};
 pub use mesh::{LoadOptions, Mesh, Triangle};
 pub use pointshell::tree::LEAF_SIZE;
 pub use pointshell::{Pointshell, PointshellData};

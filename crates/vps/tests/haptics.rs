@@ -6,6 +6,12 @@ use std::time::Duration;
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
+
+mod common;
+use common::contact::{
+    assembly, assert_same, check_culled_walk, check_thread_independence, check_time_critical, distance_fixture,
+    in_memory, moving_torus, pose_strategy,
+};
 use vps::haptics::contact_brute_force;
 use vps::shapes;
 use vps::{
@@ -316,37 +322,7 @@ fn bad_parameters_are_errors_not_panics() {
 /// An assembly voxmap (ball, torus, block, hollow box) and a torus pointshell: normals in every
 /// direction, thin and thick parts, a cavity.
 fn assembly_and_torus() -> Pair {
-    let mut tris = shapes::sphere(DVec3::new(-3.0, 0.0, 0.0), 1.5, 16, 32);
-    tris.extend(shapes::torus(DVec3::new(2.0, 0.0, 0.0), 1.5, 0.5, 32, 16));
-    tris.extend(shapes::cuboid(DVec3::new(-1.0, 2.0, -1.0), DVec3::new(1.0, 3.0, 2.0)));
-    tris.extend(shapes::hollow_box(
-        DVec3::new(-1.5, -4.5, -1.5),
-        DVec3::new(1.5, -1.5, 1.5),
-        0.3,
-    ));
-    pair(
-        tris,
-        0.1,
-        shapes::torus(DVec3::new(0.2, 0.0, 0.1), 0.8, 0.3, 32, 16),
-        0.06,
-    )
-}
-
-fn pose_strategy(lo: DVec3, hi: DVec3) -> impl Strategy<Value = Pose> {
-    (
-        (lo.x..hi.x, lo.y..hi.y, lo.z..hi.z),
-        (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64),
-    )
-        .prop_filter_map("a quaternion needs a length", |((x, y, z), (w, a, b, c))| {
-            Pose::new([x, y, z], [w, a, b, c]).ok()
-        })
-}
-
-fn assert_same(a: &Contact, b: &Contact, what: &str) {
-    assert_eq!(a.force, b.force, "{what}: force");
-    assert_eq!(a.torque, b.torque, "{what}: torque");
-    assert_eq!(a.points_in_contact, b.points_in_contact, "{what}: points in contact");
-    assert_eq!(a.max_penetration, b.max_penetration, "{what}: max penetration");
+    pair(assembly(), 0.1, moving_torus(), 0.06)
 }
 
 proptest! {
@@ -357,12 +333,10 @@ proptest! {
     #[test]
     fn culled_walk_equals_brute_force(pose in pose_strategy(DVec3::new(-5.5, -5.5, -3.0), DVec3::new(5.5, 4.5, 3.0))) {
         let p = fixture();
-        let params = ContactParams { stiffness: 3.5, ..Default::default() };
-        let fast = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
-        let slow = contact_brute_force(&p.voxmap, &p.shell, &pose, &params).unwrap();
-        assert_same(&fast, &slow, &format!("pose {}", pose.to_text()));
-        prop_assert_eq!(slow.points_tested, p.shell.points().len() as u64);
-        prop_assert!(fast.points_tested <= slow.points_tested);
+        check_culled_walk(&p.voxmap, &p.shell, &pose)?;
+        // The interpolated distance culls one step less; its proof is checked the same way.
+        let d = distance_fixture();
+        check_culled_walk(&d.voxmap, &d.shell, &pose)?;
     }
 
     /// Out of budget, the answer is within the bound it reports of the exact one.
@@ -372,22 +346,9 @@ proptest! {
         budget_us in prop_oneof![Just(0u64), 1u64..40],
     ) {
         let p = fixture();
-        let exact = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
-        let params = ContactParams { budget: Some(Duration::from_micros(budget_us)), ..Default::default() };
-        let quick = contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
-        let slack = 1e-9 * (1.0 + scale(&exact));
-        prop_assert!((quick.force - exact.force).length() <= quick.force_error_bound + slack,
-            "force {:?} vs exact {:?}, bound {}", quick.force, exact.force, quick.force_error_bound);
-        prop_assert!((quick.torque - exact.torque).length() <= quick.torque_error_bound + 10.0 * slack,
-            "torque {:?} vs exact {:?}, bound {}", quick.torque, exact.torque, quick.torque_error_bound);
-        prop_assert_eq!(quick.complete, quick.nodes_approximated == 0);
-        if budget_us == 0 {
-            prop_assert!(!quick.complete && quick.nodes_approximated >= 1);
-        }
-        prop_assert_eq!(
-            quick.points_tested + quick.points_approximated <= p.shell.points().len() as u64,
-            true
-        );
+        check_time_critical(&p.voxmap, &p.shell, &pose, budget_us)?;
+        let d = distance_fixture();
+        check_time_critical(&d.voxmap, &d.shell, &pose, budget_us)?;
     }
 }
 
@@ -424,33 +385,13 @@ fn a_budget_that_suffices_gives_the_exact_answer() {
 #[test]
 fn the_result_does_not_depend_on_the_number_of_threads() {
     // A ball of ~50k points deep in the slab: enough for the parallel path.
-    let p = pair(
-        shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0)),
-        0.1,
-        shapes::sphere(DVec3::ZERO, 1.0, 32, 64),
-        0.015,
-    );
-    assert!(p.shell.points().len() > 30_000, "{} points", p.shell.points().len());
-    let poses = [
-        at(DVec3::new(0.0, 0.0, 0.0)),
-        Pose::new([0.31, -0.2, 0.4], [0.9, 0.1, -0.3, 0.2]).unwrap(),
-    ];
-    for pose in poses {
-        let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap())
-        };
-        let one = run(1);
-        assert!(one.points_in_contact > 8192, "{one:?}");
-        for threads in [2, 3, 8] {
-            assert_same(&run(threads), &one, &format!("{threads} threads"));
-        }
-        assert_same(
-            &contact_brute_force(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap(),
-            &one,
-            "brute force",
-        );
-    }
+    let slab = || shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.0));
+    let ball = || shapes::sphere(DVec3::ZERO, 1.0, 32, 64);
+    let p = pair(slab(), 0.1, ball(), 0.015);
+    check_thread_independence(&p.voxmap, &p.shell);
+    // With the interpolated distance too.
+    let d = in_memory(slab(), 0.1, ball(), 0.015);
+    check_thread_independence(&d.voxmap, &d.shell);
 }
 
 #[test]

@@ -358,6 +358,7 @@ pub(crate) fn in_process(vm: &CachedVoxmap, shell: &PointshellFile, poses: &[Pos
     let params = ContactParams {
         stiffness: STIFFNESS,
         budget: None,
+        ..Default::default()
     };
     poses
         .iter()

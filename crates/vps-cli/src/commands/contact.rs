@@ -13,7 +13,7 @@ use serde_json::{json, Value};
 use vps::haptics::contact_brute_force;
 use vps::{contact, Pose};
 
-use crate::args::contact_params;
+use crate::args::{contact_params, PenetrationArg};
 use crate::inputs::{open_cached_voxmap, open_pointshell};
 
 /// Arguments of `vps contact`.
@@ -34,6 +34,10 @@ pub struct ContactArgs {
     /// report an error bound.
     #[arg(long)]
     pub budget_us: Option<u64>,
+    /// How deep a point in contact is: the interpolated sub-voxel distance, or the paper's
+    /// layers (for comparison).
+    #[arg(long, value_enum, default_value_t = PenetrationArg::Distance)]
+    pub penetration: PenetrationArg,
     /// Test every point, without the sphere tree (the reference; the budget is ignored).
     #[arg(long)]
     pub brute_force: bool,
@@ -54,7 +58,7 @@ fn pose_json(p: &Pose) -> Value {
 /// One query, printed.
 pub fn run(a: ContactArgs) -> Result<()> {
     let pose = Pose::parse(&a.pose).context("bad --pose")?;
-    let params = contact_params(a.stiffness, a.budget_us)?;
+    let params = contact_params(a.stiffness, a.budget_us, a.penetration)?;
     let voxmap = open_cached_voxmap(&a.voxmap)?;
     let shell = open_pointshell(&a.pointshell)?;
     if a.brute_force && a.budget_us.is_some() {

@@ -14,7 +14,7 @@ use vps::contact;
 use vps::haptics::contact_brute_force;
 use vps::haptics::trajectory::{contact_sweep, read_trajectory, sweep, DEFAULT_SWEEP_STEPS};
 
-use crate::args::contact_params;
+use crate::args::{contact_params, PenetrationArg};
 use crate::inputs::{open_cached_voxmap, open_pointshell};
 
 mod builtin;
@@ -56,6 +56,10 @@ pub struct HapticsBenchArgs {
     /// Time-critical mode: a budget per query, in microseconds. Without it, every query is exact.
     #[arg(long)]
     pub budget_us: Option<u64>,
+    /// How deep a point in contact is: the interpolated sub-voxel distance, or the paper's
+    /// layers (for comparison).
+    #[arg(long, value_enum, default_value_t = PenetrationArg::Distance)]
+    pub penetration: PenetrationArg,
     /// Force per unit of penetration per point in contact.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub stiffness: f64,
@@ -104,7 +108,7 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
     if a.tilted_box {
         return tilted::run(&a);
     }
-    let params = contact_params(a.stiffness, a.budget_us)?;
+    let params = contact_params(a.stiffness, a.budget_us, a.penetration)?;
     if a.repeat == 0 {
         bail!("--repeat must be at least 1");
     }

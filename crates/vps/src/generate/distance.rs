@@ -50,6 +50,23 @@ pub struct LayerDistances {
 /// The distance of every voxel of the layers of `voxmap` to `mesh` (which `voxmap` was made
 /// from, or any mesh in its grid): see the module's documentation.
 pub fn layer_distances(mesh: &Mesh, voxmap: &Voxmap) -> LayerDistances {
+    let (bricks, _) = nearest_in_layers(mesh, voxmap);
+    LayerDistances {
+        bricks: bricks.into_iter().map(|b| b.distance).collect(),
+    }
+}
+
+/// What [`nearest_in_layers`] finds for one stored brick.
+pub(super) struct NearestOfBrick {
+    /// As [`LayerDistances::bricks`].
+    pub(super) distance: Box<[f32; BRICK_VOXELS]>,
+    /// The index of a nearest triangle, `u32::MAX` where the distance is infinite.
+    pub(super) triangle: Box<[u32; BRICK_VOXELS]>,
+}
+
+/// The distance of every voxel of the layers to the mesh and a nearest triangle, brick by
+/// brick, and the triangles in grid units.
+pub(super) fn nearest_in_layers(mesh: &Mesh, voxmap: &Voxmap) -> (Vec<NearestOfBrick>, Vec<[DVec3; 3]>) {
     let grid = *voxmap.grid();
     let bricks = voxmap.bricks();
     let reach = reach(voxmap.layers());
@@ -109,6 +126,7 @@ pub fn layer_distances(mesh: &Mesh, voxmap: &Voxmap) -> LayerDistances {
         .map(|i| {
             let brick = &bricks[i];
             let mut out = Box::new([f32::INFINITY; BRICK_VOXELS]);
+            let mut nearest_triangle = Box::new([u32::MAX; BRICK_VOXELS]);
             let base = grid.brick_coords(brick.key).map(|c| (c << BRICK_SHIFT) as f64);
             let bin = &bins[starts[i]..starts[i + 1]];
             let mut near: Vec<(f64, u32)> = Vec::with_capacity(bin.len());
@@ -146,7 +164,7 @@ pub fn layer_distances(mesh: &Mesh, voxmap: &Voxmap) -> LayerDistances {
                         continue;
                     }
                     let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;
-                    let mut best = f64::INFINITY;
+                    let (mut best, mut best_t) = (f64::INFINITY, u32::MAX);
                     let off = (c - centre).length();
                     for &(from_centre, t) in &near {
                         // No triangle after this one is nearer than its distance from the
@@ -160,13 +178,20 @@ pub fn layer_distances(mesh: &Mesh, voxmap: &Voxmap) -> LayerDistances {
                         if to_plane * to_plane >= best {
                             continue;
                         }
-                        best = best.min(closest_point(c, &triangles[t as usize]).dist_sq);
+                        let d2 = closest_point(c, &triangles[t as usize]).dist_sq;
+                        if d2 < best {
+                            (best, best_t) = (d2, t);
+                        }
                     }
                     out[local] = best.sqrt() as f32;
+                    nearest_triangle[local] = best_t;
                 }
             }
-            out
+            NearestOfBrick {
+                distance: out,
+                triangle: nearest_triangle,
+            }
         })
         .collect();
-    LayerDistances { bricks: distances }
+    (distances, triangles)
 }

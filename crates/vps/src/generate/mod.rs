@@ -9,6 +9,7 @@ pub mod distance;
 pub mod inside;
 pub mod navigate;
 pub mod pointshell;
+pub mod signed_distance;
 pub mod surface;
 pub mod winding;
 

@@ -21,7 +21,9 @@ use rustc_hash::FxHashMap;
 use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
 use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
-use crate::voxmap::{outside_value, BrickSlot, BrickValues, Voxmap, VoxmapCounts};
+use crate::voxmap::{
+    far_distance, outside_value, BrickDistances, BrickSlot, BrickValues, Voxmap, VoxmapCounts, DISTANCE_STEP,
+};
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -30,7 +32,17 @@ const SHARDS: usize = 64;
 pub const DEFAULT_CACHE_BYTES: usize = 256 << 20;
 
 /// What the cache holds for one brick key: a tile, or a stored brick shared between cursors.
-pub type Slot = BrickSlot<Arc<BrickValues>>;
+pub type Slot = BrickSlot<Arc<CachedBrick>>;
+
+/// A stored brick as the cache holds it: its values and, if the voxmap carries them, its
+/// signed distances.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CachedBrick {
+    /// The values.
+    pub values: BrickValues,
+    /// The signed distances, in steps of [`DISTANCE_STEP`] voxels.
+    pub distances: Option<BrickDistances>,
+}
 
 /// Cache counters, for benchmarks and tuning.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -184,6 +196,14 @@ impl CachedVoxmap {
         }
     }
 
+    /// Whether the voxmap carries signed distances (see [`Voxmap::with_distances`]).
+    pub fn has_distances(&self) -> bool {
+        match &self.source {
+            Source::File(_) => false,
+            Source::Memory(v) => v.distances().is_some(),
+        }
+    }
+
     /// The voxmap's voxel counts.
     pub fn counts(&self) -> VoxmapCounts {
         match &self.source {
@@ -212,8 +232,22 @@ impl CachedVoxmap {
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
-            Source::File(f) => f.brick(key)?.map(Arc::from),
-            Source::Memory(v) => v.brick(key).map(|values| Arc::new(*values)),
+            Source::File(f) => f.brick(key)?.map(|values| {
+                Arc::new(CachedBrick {
+                    values: *values,
+                    distances: None,
+                })
+            }),
+            Source::Memory(v) => v.brick(key).map(|values| {
+                let distances = match v.brick_distances(key) {
+                    Some(BrickSlot::Stored(d)) => Some(*d),
+                    _ => None,
+                };
+                Arc::new(CachedBrick {
+                    values: *values,
+                    distances,
+                })
+            }),
         };
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {
@@ -291,6 +325,9 @@ pub struct Cursor<'a> {
     dims_f: DVec3,
     brick_dims: [u64; 3],
     outside: i8,
+    /// The stored distance of far outside and of inside tiles, in steps.
+    far_out: i16,
+    far_in: i16,
     table: Option<Box<Table>>,
     /// The brick of the last look-up and its entry in the table.
     last_brick: [u32; 3],
@@ -342,6 +379,8 @@ impl<'a> Cursor<'a> {
             dims_f: DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64),
             brick_dims: [n[0] as u64, n[1] as u64, n[2] as u64],
             outside,
+            far_out: far_distance(voxmap.layers(), -1),
+            far_in: far_distance(voxmap.layers(), 1),
             table: Some(table.unwrap_or_else(Table::new)),
             // Matches no brick, so the first look-up switches.
             last_brick: [u32::MAX; 3],
@@ -386,7 +425,62 @@ impl<'a> Cursor<'a> {
         };
         let m = (1u32 << BRICK_SHIFT) - 1;
         let local = (v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT));
-        table.slots[self.last_at].value(local as usize)
+        match &table.slots[self.last_at] {
+            BrickSlot::Stored(brick) => brick.values[local as usize],
+            BrickSlot::Tile(t) => *t,
+        }
+    }
+
+    /// The signed distance of voxel `v`, in steps of [`DISTANCE_STEP`] voxels: the stored one,
+    /// or ± the reach for tiles and beyond the grid. Only for a voxmap with distances.
+    #[inline(always)]
+    fn voxel_distance(&mut self, v: [i64; 3]) -> i16 {
+        if (0..3).any(|a| v[a] < 0 || v[a] >= self.dims[a] as i64) {
+            return self.far_out;
+        }
+        let v = v.map(|c| c as u32);
+        let value = self.voxel(v);
+        let Some(table) = &self.table else {
+            return self.far_out;
+        };
+        match &table.slots[self.last_at] {
+            BrickSlot::Stored(brick) => match &brick.distances {
+                Some(d) => {
+                    let m = (1u32 << BRICK_SHIFT) - 1;
+                    d[((v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT))) as usize]
+                }
+                None => self.far_out,
+            },
+            BrickSlot::Tile(_) if value > 0 => self.far_in,
+            BrickSlot::Tile(_) => self.far_out,
+        }
+    }
+
+    /// The signed distance at grid-unit point `u`, in voxels, positive inside: trilinear over
+    /// the eight voxel centres around it. Only for a voxmap with distances.
+    #[inline]
+    pub fn distance_at(&mut self, u: DVec3) -> f64 {
+        let c = u - 0.5;
+        let f = c.floor();
+        let t = c - f;
+        let b = [f.x as i64, f.y as i64, f.z as i64];
+        let mut corner = [0.0f64; 8];
+        for (k, d) in corner.iter_mut().enumerate() {
+            let v = [
+                b[0] + (k & 1) as i64,
+                b[1] + ((k >> 1) & 1) as i64,
+                b[2] + (k >> 2) as i64,
+            ];
+            *d = self.voxel_distance(v) as f64;
+        }
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let x00 = lerp(corner[0], corner[1], t.x);
+        let x10 = lerp(corner[2], corner[3], t.x);
+        let x01 = lerp(corner[4], corner[5], t.x);
+        let x11 = lerp(corner[6], corner[7], t.x);
+        let y0 = lerp(x00, x10, t.y);
+        let y1 = lerp(x01, x11, t.y);
+        lerp(y0, y1, t.z) * DISTANCE_STEP
     }
 
     /// Make brick `b` the current one, from the table or the shared cache.

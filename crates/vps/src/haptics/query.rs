@@ -61,6 +61,20 @@ enum Class {
     Straddles,
 }
 
+/// How deep a point is, by which the contact force is made (`docs/HAPTICS.md`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Penetration {
+    /// The signed distance interpolated trilinearly at the point, from the voxmap's sub-voxel
+    /// distances: continuous in the pose, the same on a face at any angle to the grid. A
+    /// voxmap without distances (a version 1 file) falls back to [`Penetration::Layers`].
+    #[default]
+    Distance,
+    /// The paper's: the point's voxel's layer plus its distance to the tangent plane through
+    /// the voxel centre. Steps as a point crosses voxels; kept for comparison.
+    Layers,
+}
+
 /// How to query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactParams {
@@ -69,6 +83,8 @@ pub struct ContactParams {
     /// Time-critical mode: stop refining when this much time has passed since the call, and
     /// let unrefined spheres stand for their points. `None`: exact.
     pub budget: Option<Duration>,
+    /// How a point's penetration is measured.
+    pub penetration: Penetration,
 }
 
 impl Default for ContactParams {
@@ -76,6 +92,7 @@ impl Default for ContactParams {
         ContactParams {
             stiffness: 1.0,
             budget: None,
+            penetration: Penetration::default(),
         }
     }
 }
@@ -145,6 +162,10 @@ struct Frame<'a> {
     dims: DVec3,
     layers: i32,
     outside: i8,
+    /// Interpolated distances (not layers) measure the penetration.
+    distance: bool,
+    /// The clamp of the distances, in voxels.
+    reach: f64,
 }
 
 impl<'a> Frame<'a> {
@@ -182,6 +203,8 @@ impl<'a> Frame<'a> {
             dims: DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64),
             layers: voxmap.layers() as i32,
             outside: crate::voxmap::outside_value(voxmap.layers()),
+            distance: params.penetration == Penetration::Distance && voxmap.has_distances(),
+            reach: crate::voxmap::distance_reach(voxmap.layers()),
         })
     }
 
@@ -228,11 +251,29 @@ impl<'a> Frame<'a> {
             for (k, p) in ps.iter().enumerate() {
                 (r[k], u[k]) = self.place(*p);
             }
-            let mut hit = [(-1i8, [0u32; 3]); BATCH];
+            let mut hit = [(i8::MIN, [0u32; 3]); BATCH];
             for k in 0..ps.len() {
                 if let Some(h) = cur.in_grid(u[k]) {
                     hit[k] = h;
                 }
+            }
+            if self.distance {
+                for (k, n) in ns.iter().enumerate() {
+                    // The interpolation reads the voxels one step around the point's: none is
+                    // ≥ 0 when the point's own is ≤ −2 (see `classify`), so it would be ≤ 0.
+                    if hit[k].0 <= -2 {
+                        continue;
+                    }
+                    let d = self.s * cur.distance_at(u[k]);
+                    if d > 0.0 {
+                        touching += 1;
+                        let n = self.rot * n.as_dvec3();
+                        force += n * d;
+                        torque += r[k].cross(n) * d;
+                        deepest = deepest.max(d);
+                    }
+                }
+                continue;
             }
             for (k, n) in ns.iter().enumerate() {
                 let (value, v) = hit[k];
@@ -270,6 +311,12 @@ impl<'a> Frame<'a> {
     /// Going the other way, values fall by at most 1 per voxel step except once, by 2, from +1
     /// to −1 across a diagonal, so a centre value `v ≥ m + 1` proves every point in a voxel ≥ 0.
     /// A sphere wholly beyond the grid is outside too.
+    ///
+    /// With interpolated distances a point is in contact only when one of the eight voxel
+    /// centres around it has a distance > 0, so a value ≥ 0 (a voxel of value < 0 is outside
+    /// and at least half a voxel from the mesh; see [`crate::generate::signed_distance`]);
+    /// those voxels are at most one step from the point's own, so the proof needs one step
+    /// more: a centre value −k with `r/s < k − 2`.
     #[inline]
     fn classify(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<Class, StorageError> {
         let (_, u) = self.place(node.center());
@@ -287,7 +334,9 @@ impl<'a> Frame<'a> {
         };
         cur.check()?;
         let value = value as i32;
-        if value < 0 && r < (-value - 1) as f64 {
+        // An interpolated distance reads one voxel further (see `Cursor::distance_at`).
+        let reach = if self.distance { 2 } else { 1 };
+        if value < 0 && r < (-value - reach) as f64 {
             Ok(Class::Outside)
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)
@@ -394,7 +443,8 @@ impl<'a> Frame<'a> {
         let (value, v) = looked_up.unwrap_or((self.outside, [0; 3]));
         // Values change by at most 1 per voxel step, except one step of 2 from −1 to +1
         // across a diagonal, and a point within r is at most floor(r/s) + 1 steps away.
-        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + 1;
+        // An interpolated distance reads one voxel further.
+        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + 1 + self.distance as i32;
         let v_max = if inside_grid {
             (value as i32 + steps + 1).min(self.layers + 1)
         } else {
@@ -404,15 +454,24 @@ impl<'a> Frame<'a> {
             return Ok(());
         }
         let count = node.point_count as f64;
-        // Each point's penetration is at most s·v_max plus its distance to its voxel centre.
-        let d_max = self.s * (v_max as f64 + 0.75f64.sqrt());
+        // Each point's penetration is at most s·v_max plus its distance to its voxel centre;
+        // an interpolated distance, at most the reach it is clamped to.
+        let d_max = if self.distance {
+            self.s * self.reach
+        } else {
+            self.s * (v_max as f64 + 0.75f64.sqrt())
+        };
         let bound = 2.0 * self.k * count * d_max;
         acc.force_error_bound += bound;
         acc.torque_error_bound += bound * (r.length() + node.radius as f64);
         let axis = node.cone_axis().as_dvec3();
         if value >= 0 && axis.length_squared() > 0.0 {
             let n = (self.rot * axis).normalize();
-            let d = self.penetration(value, v, u, n);
+            let d = if self.distance {
+                self.s * cur.distance_at(u)
+            } else {
+                self.penetration(value, v, u, n)
+            };
             if d > 0.0 {
                 // Unscaled, like the points' sums (see `test_points`).
                 acc.force += n * (count * d);

@@ -8,7 +8,9 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::generate::{pointshell::pointshell, voxelize, GenerateError, VoxelizeParams};
+use crate::generate::{
+    pointshell::pointshell, signed_distance::signed_distances, voxelize, GenerateError, VoxelizeParams,
+};
 use crate::haptics::{contact, CachedVoxmap, ContactParams, HapticsError, Pose};
 use crate::mesh::{Mesh, MeshError};
 use crate::shapes;
@@ -116,7 +118,8 @@ pub fn slide_on_tilted_box(params: &SlideParams, contact_params: &ContactParams)
     .map(|t| t.map(|v| tilt * v));
     let box_mesh = Mesh::from_triangles("tilted_box", box_triangles)?;
     let (voxmap, _) = voxelize(&box_mesh, &VoxelizeParams::new(p.box_voxel, p.layers))?;
-    let voxmap = CachedVoxmap::in_memory(voxmap);
+    let distances = signed_distances(&box_mesh, &voxmap);
+    let voxmap = CachedVoxmap::in_memory(voxmap.with_distances(distances));
 
     // Facets within 1 % of a pointshell voxel of the sphere.
     let rings = shapes::sphere_rings(p.sphere_radius / p.sphere_voxel, 0.01);
@@ -206,6 +209,30 @@ mod tests {
                 slide_on_tilted_box(&bad, &ContactParams::default()),
                 Err(SlideError::Params(_))
             ));
+        }
+    }
+
+    /// Issue 12's quality aims on the slide, with the interpolated distance: the force is the
+    /// same at every pose (std/mean under 1 %, spread under 4 %) and along the face normal
+    /// (within 1°) at every tilt. The mean force is not yet the same at every tilt (the
+    /// pointshell's points are denser on some slopes than others; `docs/HAPTICS.md`), so that is
+    /// not asserted.
+    #[test]
+    fn the_slide_is_smooth_and_normal_at_every_tilt() {
+        for tilt in [0.0, 17.0, 30.0, 45.0] {
+            let params = SlideParams {
+                tilt_degrees: tilt,
+                ..Default::default()
+            };
+            let f = slide_on_tilted_box(&params, &ContactParams::default()).unwrap();
+            assert!(f.mean_force > 0.0, "{tilt}°: {f:?}");
+            assert!(f.std_over_mean < 0.01, "{tilt}°: std/mean {}", f.std_over_mean);
+            assert!(f.spread_over_mean < 0.04, "{tilt}°: spread/mean {}", f.spread_over_mean);
+            assert!(
+                f.max_direction_error_degrees < 1.0,
+                "{tilt}°: {}",
+                f.max_direction_error_degrees
+            );
         }
     }
 }

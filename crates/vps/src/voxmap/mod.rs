@@ -19,6 +19,35 @@ pub type BrickValues = [i8; BRICK_VOXELS];
 /// Largest number of layers: values stay within `i8` with room for the deep value.
 pub const MAX_LAYERS: u8 = 126;
 
+/// The signed distances of one brick's voxel centres to the surface, in steps of
+/// [`DISTANCE_STEP`] voxels, positive inside, local index order like [`BrickValues`].
+pub type BrickDistances = [i16; BRICK_VOXELS];
+
+/// The step of the stored distances, in voxels: 1/256, so a distance is within 1/512 of a
+/// voxel of the exact one, and `i16` holds ±128 voxels, more than [`distance_reach`] of
+/// [`MAX_LAYERS`].
+pub const DISTANCE_STEP: f64 = 1.0 / 256.0;
+
+/// How far the stored distances reach, in voxels, for `layers` layers: half a voxel beyond the
+/// centres of the last layer. Distances are clamped to ±this: a voxel beyond the layers, or in
+/// a tile, is at least this far from the surface (its chessboard distance to the nearest
+/// surface voxel is more than `layers`, so on one axis it is at least `layers + 0.5` from any
+/// point of that voxel).
+pub fn distance_reach(layers: u8) -> f64 {
+    layers as f64 + 0.5
+}
+
+/// The stored distance of a tile, or of a stored voxel beyond the layers, of value `value`:
+/// the reach, with the value's sign.
+pub fn far_distance(layers: u8, value: i8) -> i16 {
+    let r = (distance_reach(layers) / DISTANCE_STEP) as i16;
+    if value > 0 {
+        r
+    } else {
+        -r
+    }
+}
+
 /// A half-open range `[start, end)` of brick keys.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct KeyRange {
@@ -91,6 +120,9 @@ pub struct Voxmap {
     bricks: Vec<Brick>,
     inside: Vec<KeyRange>,
     counts: VoxmapCounts,
+    /// The signed distances of the stored bricks' voxels, brick by brick like `bricks`, if
+    /// computed (see [`Voxmap::with_distances`]).
+    distances: Option<Vec<BrickDistances>>,
 }
 
 /// The value of voxels deep inside: `+(layers + 1)`.
@@ -130,7 +162,42 @@ impl Voxmap {
             bricks,
             inside,
             counts,
+            distances: None,
         }
+    }
+
+    /// The same voxmap carrying the signed distances of its stored bricks' voxels, one array
+    /// per brick in the order of [`Voxmap::bricks`]: the sub-voxel field that the haptic query
+    /// interpolates (`docs/VOXMAP.md`). Tiles need none: theirs is [`far_distance`].
+    ///
+    /// # Panics
+    /// If there is not one array per stored brick.
+    pub fn with_distances(mut self, distances: Vec<BrickDistances>) -> Voxmap {
+        assert_eq!(
+            distances.len(),
+            self.bricks.len(),
+            "one distance array per stored brick"
+        );
+        self.distances = Some(distances);
+        self
+    }
+
+    /// The signed distances of the stored bricks, if the voxmap carries them.
+    pub fn distances(&self) -> Option<&[BrickDistances]> {
+        self.distances.as_deref()
+    }
+
+    /// The signed distances of brick `key`: `Stored` for a stored brick, `Tile` with the
+    /// value of a tile (whose distance is [`far_distance`]); `None` without distances.
+    pub fn brick_distances(&self, key: u64) -> Option<BrickSlot<&BrickDistances>> {
+        let distances = self.distances.as_ref()?;
+        Some(match self.bricks.binary_search_by_key(&key, |b| b.key) {
+            Ok(i) => BrickSlot::Stored(&distances[i]),
+            Err(_) => BrickSlot::Tile(match self.brick(key) {
+                BrickSlot::Tile(t) => t,
+                BrickSlot::Stored(_) => unreachable!("not a stored brick"),
+            }),
+        })
     }
 
     /// The voxmap of a signed distance field (world units, negative inside; its layers are then

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+pub mod contact;
 pub mod mesh_files;
 pub mod pointshell_bytes;
 

@@ -14,7 +14,7 @@ use crate::render::{plot_series_png, Series, SERIES_COLOURS};
 
 /// Slide at each of `--tilts` and report.
 pub fn run(a: &HapticsBenchArgs) -> Result<()> {
-    let params = contact_params(a.stiffness, None)?;
+    let params = contact_params(a.stiffness, None, a.penetration)?;
     if a.tilts.is_empty() || a.tilts.iter().any(|t| !t.is_finite()) {
         bail!("--tilts must be a comma-separated list of angles in degrees");
     }

@@ -1,0 +1,154 @@
+//! What the contact query's tests share: the assembly a pointshell is posed in, random poses,
+//! and bit-for-bit comparison of results.
+
+use std::time::Duration;
+
+use glam::DVec3;
+use proptest::prelude::*;
+use vps::generate::signed_distance::signed_distances;
+use vps::haptics::contact_brute_force;
+use vps::shapes;
+use vps::{
+    contact, pointshell, voxelize, CachedVoxmap, Contact, ContactParams, Mesh, Pointshell, PointshellData, Pose,
+    Triangle, VoxelizeParams, LEAF_SIZE,
+};
+
+/// An assembly (ball, torus, block, hollow box): normals in every direction, thin and thick
+/// parts, a cavity.
+pub fn assembly() -> Vec<Triangle> {
+    let mut tris = shapes::sphere(DVec3::new(-3.0, 0.0, 0.0), 1.5, 16, 32);
+    tris.extend(shapes::torus(DVec3::new(2.0, 0.0, 0.0), 1.5, 0.5, 32, 16));
+    tris.extend(shapes::cuboid(DVec3::new(-1.0, 2.0, -1.0), DVec3::new(1.0, 3.0, 2.0)));
+    tris.extend(shapes::hollow_box(
+        DVec3::new(-1.5, -4.5, -1.5),
+        DVec3::new(1.5, -1.5, 1.5),
+        0.3,
+    ));
+    tris
+}
+
+/// The torus whose pointshell is posed in [`assembly`].
+pub fn moving_torus() -> Vec<Triangle> {
+    shapes::torus(DVec3::new(0.2, 0.0, 0.1), 0.8, 0.3, 32, 16)
+}
+
+/// Poses with a translation in the box `lo..hi` and any rotation.
+pub fn pose_strategy(lo: DVec3, hi: DVec3) -> impl Strategy<Value = Pose> {
+    (
+        (lo.x..hi.x, lo.y..hi.y, lo.z..hi.z),
+        (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64),
+    )
+        .prop_filter_map("a quaternion needs a length", |((x, y, z), (w, a, b, c))| {
+            Pose::new([x, y, z], [w, a, b, c]).ok()
+        })
+}
+
+/// The same sums, bit for bit.
+pub fn assert_same(a: &Contact, b: &Contact, what: &str) {
+    assert_eq!(a.force, b.force, "{what}: force");
+    assert_eq!(a.torque, b.torque, "{what}: torque");
+    assert_eq!(a.points_in_contact, b.points_in_contact, "{what}: points in contact");
+    assert_eq!(a.max_penetration, b.max_penetration, "{what}: max penetration");
+}
+
+/// The culled walk gives the same bits as testing every point, having tested no more.
+pub fn check_culled_walk<S: PointshellData + ?Sized>(
+    voxmap: &CachedVoxmap,
+    shell: &S,
+    pose: &Pose,
+) -> Result<(), TestCaseError> {
+    let params = ContactParams {
+        stiffness: 3.5,
+        ..Default::default()
+    };
+    let fast = contact(voxmap, shell, pose, &params).unwrap();
+    let slow = contact_brute_force(voxmap, shell, pose, &params).unwrap();
+    assert_same(&fast, &slow, &format!("pose {}", pose.to_text()));
+    prop_assert_eq!(slow.points_tested, shell.points().len() as u64);
+    prop_assert!(fast.points_tested <= slow.points_tested);
+    Ok(())
+}
+
+/// Out of a budget of `budget_us`, the answer is within the bound it reports of the exact one.
+pub fn check_time_critical<S: PointshellData + ?Sized>(
+    voxmap: &CachedVoxmap,
+    shell: &S,
+    pose: &Pose,
+    budget_us: u64,
+) -> Result<(), TestCaseError> {
+    let exact = contact(voxmap, shell, pose, &ContactParams::default()).unwrap();
+    let params = ContactParams {
+        budget: Some(Duration::from_micros(budget_us)),
+        ..Default::default()
+    };
+    let quick = contact(voxmap, shell, pose, &params).unwrap();
+    // Rounding is relative to the sum of the points' force magnitudes, which this bounds.
+    let slack = 1e-9 * (1.0 + exact.max_penetration * exact.points_in_contact as f64);
+    prop_assert!(
+        (quick.force - exact.force).length() <= quick.force_error_bound + slack,
+        "force {:?} vs exact {:?}, bound {}",
+        quick.force,
+        exact.force,
+        quick.force_error_bound
+    );
+    prop_assert!(
+        (quick.torque - exact.torque).length() <= quick.torque_error_bound + 10.0 * slack,
+        "torque {:?} vs exact {:?}, bound {}",
+        quick.torque,
+        exact.torque,
+        quick.torque_error_bound
+    );
+    prop_assert_eq!(quick.complete, quick.nodes_approximated == 0);
+    if budget_us == 0 {
+        prop_assert!(!quick.complete && quick.nodes_approximated >= 1);
+    }
+    prop_assert!(quick.points_tested + quick.points_approximated <= shell.points().len() as u64);
+    Ok(())
+}
+
+/// A voxmap with signed distances and a pointshell, both made in memory.
+pub struct InMemory {
+    pub voxmap: CachedVoxmap,
+    pub shell: Pointshell,
+}
+
+/// The voxmap of `static_tris` (voxels of `s`, 5 layers, with distances) and the pointshell of
+/// `moving_tris` (voxels of `ps`).
+pub fn in_memory(static_tris: Vec<Triangle>, s: f64, moving_tris: Vec<Triangle>, ps: f64) -> InMemory {
+    let mesh = Mesh::from_triangles("static", static_tris).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(s, 5)).unwrap();
+    let distances = signed_distances(&mesh, &vm);
+    let voxmap = CachedVoxmap::in_memory(vm.with_distances(distances));
+    let moving = Mesh::from_triangles("moving", moving_tris).unwrap();
+    let (vm, _) = voxelize(&moving, &VoxelizeParams::new(ps, 5)).unwrap();
+    let (shell, _) = pointshell(&moving, &vm, LEAF_SIZE).unwrap();
+    InMemory { voxmap, shell }
+}
+
+/// [`assembly`] with distances and the [`moving_torus`], built once per test binary.
+pub fn distance_fixture() -> &'static InMemory {
+    static PAIR: std::sync::OnceLock<InMemory> = std::sync::OnceLock::new();
+    PAIR.get_or_init(|| in_memory(assembly(), 0.1, moving_torus(), 0.06))
+}
+
+/// At each of two poses of a 1-unit ball in a slab (one at the origin, one turned), the same
+/// bits with 1, 2, 3 and 8 threads and from the brute force, with enough points in contact for
+/// the parallel path.
+pub fn check_thread_independence<S: PointshellData + Sync + ?Sized>(voxmap: &CachedVoxmap, shell: &S) {
+    for pose in [
+        Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap(),
+        Pose::new([0.31, -0.2, 0.4], [0.9, 0.1, -0.3, 0.2]).unwrap(),
+    ] {
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| contact(voxmap, shell, &pose, &ContactParams::default()).unwrap())
+        };
+        let one = run(1);
+        assert!(one.points_in_contact > 8192, "{one:?}");
+        for threads in [2, 3, 8] {
+            assert_same(&run(threads), &one, &format!("{threads} threads"));
+        }
+        let brute = contact_brute_force(voxmap, shell, &pose, &ContactParams::default()).unwrap();
+        assert_same(&brute, &one, "brute force");
+    }
+}

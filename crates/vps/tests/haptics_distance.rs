@@ -1,0 +1,61 @@
+//! The contact query with the voxmap's interpolated signed distance (the default penetration):
+//! force that is continuous and pushes out. The culled walk against the brute force, the
+//! time-critical bound and determinism across thread counts are tests of `haptics.rs`, on
+//! voxmaps with distances and on files without them alike.
+
+use glam::DVec3;
+
+mod common;
+use common::contact::{distance_fixture, in_memory as pair};
+use vps::shapes;
+use vps::{contact, ContactParams, Penetration, Pose};
+
+/// Some poses of `haptics.rs`'s property cases touch: the comparisons are not all of zeros.
+#[test]
+fn the_fixture_touches_and_the_two_penetrations_differ() {
+    let p = distance_fixture();
+    let pose = Pose::new([2.0, 0.0, 0.3], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let distance = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
+    let layers = ContactParams {
+        penetration: Penetration::Layers,
+        ..Default::default()
+    };
+    let layers = contact(&p.voxmap, &p.shell, &pose, &layers).unwrap();
+    assert!(distance.points_in_contact > 100 && layers.points_in_contact > 100);
+    assert_ne!(distance.force, layers.force);
+}
+
+/// A ball pressed into a slab whose top face lies on voxel faces, and one whose top face does
+/// not: pushed straight out, harder the deeper it goes; and slid sideways at a constant depth,
+/// the force is the same at every pose (no voxel bumps).
+#[test]
+fn a_ball_pressed_and_slid_on_a_slab_feels_a_smooth_force() {
+    for top in [0.0, 0.037] {
+        let p = pair(
+            shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, top)),
+            0.2,
+            shapes::sphere(DVec3::ZERO, 1.0, 24, 48),
+            0.08,
+        );
+        let at = |x: f64, depth: f64| {
+            let pose = Pose::new([x, 0.0, top + 1.0 - depth], [1.0, 0.0, 0.0, 0.0]).unwrap();
+            contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap()
+        };
+        let mut last = 0.0;
+        for step in 1..=16 {
+            let depth = 0.05 * step as f64;
+            let c = at(0.0, depth);
+            assert!(c.force.z > last, "top {top}, depth {depth}: {} after {last}", c.force.z);
+            assert!(
+                c.force.truncate().length() <= 0.02 * c.force.z,
+                "top {top}, depth {depth}: {:?}",
+                c.force
+            );
+            last = c.force.z;
+        }
+        let forces: Vec<f64> = (0..40).map(|i| at(i as f64 * 0.013, 0.2).force.length()).collect();
+        let mean = forces.iter().sum::<f64>() / forces.len() as f64;
+        let spread = forces.iter().fold(0.0f64, |m, f| m.max((f - mean).abs()));
+        assert!(spread <= 0.02 * mean, "top {top}: forces {forces:?}");
+    }
+}

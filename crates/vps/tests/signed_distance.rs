@@ -1,0 +1,111 @@
+//! The signed distances a voxmap carries, against the brute force: the distance over every
+//! triangle, with the side of the solid-angle winding number, clamped to the reach.
+
+use glam::DVec3;
+use vps::generate::signed_distance::signed_distances;
+use vps::geometry::closest::closest_point;
+use vps::grid::{local_index, BRICK, BRICK_SHIFT};
+use vps::reference::winding::WindingReference;
+use vps::shapes;
+use vps::voxmap::{distance_reach, DISTANCE_STEP};
+use vps::{voxelize, Mesh, Triangle, VoxelizeParams};
+
+/// How the stored field of one shape compares with the exact one.
+#[derive(Debug, Default)]
+struct Agreement {
+    voxels: usize,
+    /// Voxels whose stored distance has the wrong sign (beyond the rounding).
+    wrong_side: usize,
+    /// Largest |stored − exact|, in voxels, over the voxels on the right side.
+    worst: f64,
+    /// Largest exact |distance| of a voxel on the wrong side, in voxels.
+    worst_wrong_side: f64,
+}
+
+fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
+    let mesh = Mesh::from_triangles("m", tris).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(voxel_size, layers)).unwrap();
+    let grid = *vm.grid();
+    let grid_tris: Vec<[DVec3; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|p| grid.to_grid_units(p)))
+        .collect();
+    let reference = WindingReference::new(&grid, &[&mesh.triangles[..]]);
+    let stored = signed_distances(&mesh, &vm);
+    let reach = distance_reach(layers);
+    let mut a = Agreement::default();
+    for (brick, dist) in vm.bricks().iter().zip(&stored) {
+        let b = grid.brick_coords(brick.key).map(|c| c << BRICK_SHIFT);
+        for z in 0..BRICK {
+            for y in 0..BRICK {
+                for x in 0..BRICK {
+                    let l = local_index(x, y, z);
+                    let v = [b[0] + x, b[1] + y, b[2] + z];
+                    let c = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
+                    let d = grid_tris
+                        .iter()
+                        .map(|t| closest_point(c, t).dist_sq)
+                        .fold(f64::INFINITY, f64::min)
+                        .sqrt()
+                        .min(reach);
+                    let exact = if reference.is_inside(v) { d } else { -d };
+                    let got = dist[l] as f64 * DISTANCE_STEP;
+                    a.voxels += 1;
+                    // Half a step of rounding, and the f32 the distance is measured in.
+                    if (got - exact).abs() <= 0.5 * DISTANCE_STEP + 1e-5 {
+                        continue;
+                    }
+                    if got.signum() != exact.signum() {
+                        a.wrong_side += 1;
+                        a.worst_wrong_side = a.worst_wrong_side.max(d);
+                    } else {
+                        a.worst = a.worst.max((got - exact).abs());
+                    }
+                }
+            }
+        }
+    }
+    a
+}
+
+/// On closed shapes, flipped triangles and faces lying on voxel faces, every stored distance is
+/// the exact one rounded to the step, on the side the winding number says.
+#[test]
+fn stored_distances_are_the_exact_signed_distances_on_closed_shapes() {
+    let c = DVec3::new(0.13, -0.27, 0.31);
+    let cases: Vec<(&str, Vec<Triangle>)> = vec![
+        ("sphere", shapes::sphere(c, 4.0, 24, 48)),
+        ("flipped torus", shapes::flipped(&shapes::torus(c, 3.5, 1.2, 32, 16))),
+        (
+            "lattice box",
+            shapes::cuboid(DVec3::new(-2.0, -1.5, -1.0), DVec3::new(2.0, 1.5, 1.0)),
+        ),
+    ];
+    for (name, tris) in cases {
+        let a = agreement(tris, 0.25, 3);
+        assert!(a.voxels > 10_000, "{name}: {a:?}");
+        assert_eq!(a.wrong_side, 0, "{name}: {a:?}");
+        assert_eq!(a.worst, 0.0, "{name}: {a:?}");
+    }
+}
+
+/// Where one part's faces are buried in another, the side of a surface voxel near where the
+/// buried faces meet the outer surface is decided by a rule of thumb (see
+/// `vps::generate::signed_distance`), which is wrong on a few of them: measured 108 of 32,256
+/// voxels here. Those are surface voxels (within √3/2 of a triangle), so the error stays below
+/// two voxels' distance; everywhere else the distance is exact.
+#[test]
+fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
+    let c = DVec3::new(0.13, -0.27, 0.31);
+    let mut tris = shapes::sphere(c, 2.5, 16, 32);
+    tris.extend(shapes::cuboid(DVec3::new(0.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)));
+    let a = agreement(tris, 0.25, 3);
+    assert!(a.voxels > 10_000, "{a:?}");
+    assert!(
+        a.wrong_side * 200 <= a.voxels,
+        "more than 0.5 % on the wrong side: {a:?}"
+    );
+    assert!(a.worst_wrong_side <= 0.75f64.sqrt() + 1e-9, "{a:?}");
+    assert!(a.worst <= 0.5 + 1e-3, "{a:?}");
+}
