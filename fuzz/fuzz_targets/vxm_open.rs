@@ -50,6 +50,7 @@ fn probe(data: &[u8]) {
     if let Ok(index) = file.index() {
         for e in index.iter().take(64) {
             let _ = file.brick(e.key);
+            let _ = file.stored_brick(e.key);
         }
     }
     for key in [0, 1, bricks / 2, bricks.saturating_sub(1), bricks, u64::MAX] {

@@ -5,7 +5,7 @@ use std::time::Duration;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use vps::haptics::HapticsError;
-use vps::{ContactParams, Pose};
+use vps::{ContactParams, Penetration, Pose};
 
 use crate::errors::{OrRaise, ToPy};
 use crate::pointshell::{PyPointshell, ShellData};
@@ -50,10 +50,11 @@ impl PyContact {
 
 /// Force and torque the voxmap exerts on the pointshell at `pose`: `(tx, ty, tz)` or
 /// `(tx, ty, tz, qw, qx, qy, qz)` (identity when `None`). `stiffness` is the force per unit of
-/// penetration per point; `budget_seconds`, when given, bounds the time of the query
-/// (docs/HAPTICS.md).
+/// penetration per point; `budget_seconds`, when given, bounds the time of the query;
+/// `penetration` is "distance" (the interpolated signed distance, where the voxmap has one)
+/// or "layers" (docs/HAPTICS.md).
 #[pyfunction]
-#[pyo3(signature = (voxmap, shell, pose = None, *, stiffness = 1.0, budget_seconds = None))]
+#[pyo3(signature = (voxmap, shell, pose = None, *, stiffness = 1.0, budget_seconds = None, penetration = "distance"))]
 pub(crate) fn contact(
     py: Python<'_>,
     voxmap: &PyVoxmap,
@@ -61,7 +62,17 @@ pub(crate) fn contact(
     pose: Option<Vec<f64>>,
     stiffness: f64,
     budget_seconds: Option<f64>,
+    penetration: &str,
 ) -> PyResult<PyContact> {
+    let penetration = match penetration {
+        "distance" => Penetration::Distance,
+        "layers" => Penetration::Layers,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "penetration must be 'distance' or 'layers', got {penetration:?}"
+            )))
+        }
+    };
     let pose = match pose.as_deref() {
         None => Ok(Pose::IDENTITY),
         Some(&[x, y, z]) => Pose::new([x, y, z], [1.0, 0.0, 0.0, 0.0]),
@@ -85,7 +96,7 @@ pub(crate) fn contact(
     let params = ContactParams {
         stiffness,
         budget,
-        ..Default::default()
+        penetration,
     };
     let c = py.detach(|| query(voxmap, shell, &pose, &params)).or_raise()?;
     Ok(PyContact {

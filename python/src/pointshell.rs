@@ -142,7 +142,7 @@ pub(crate) fn pointshell(
     let voxmap = match (voxmap, voxel_size) {
         (Some(v), None) => v,
         (None, Some(size)) => {
-            made = voxelize(py, mesh, size, layers, "winding", "auto")?;
+            made = voxelize(py, mesh, size, layers, "winding", "auto", false)?;
             &made
         }
         _ => return Err(PyValueError::new_err("give exactly one of voxmap and voxel_size=")),

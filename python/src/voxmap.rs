@@ -179,9 +179,10 @@ impl PyVoxmap {
 /// Voxelize `mesh` at `voxel_size` with `layers` on each side of the surface.
 ///
 /// `fill` is "winding" (default), "objects" or "scene"; `navigation` "auto" (default),
-/// "bbox", "zrange" or "narrowing" (docs/VOXMAP.md).
+/// "bbox", "zrange" or "narrowing" (docs/VOXMAP.md). With `distances`, every stored voxel
+/// also gets its signed distance to the mesh, which `contact` interpolates.
 #[pyfunction]
-#[pyo3(signature = (mesh, voxel_size, layers = 5, fill = "winding", navigation = "auto"))]
+#[pyo3(signature = (mesh, voxel_size, layers = 5, fill = "winding", navigation = "auto", distances = false))]
 pub(crate) fn voxelize(
     py: Python<'_>,
     mesh: &PyMesh,
@@ -189,6 +190,7 @@ pub(crate) fn voxelize(
     layers: u32,
     fill: &str,
     navigation: &str,
+    distances: bool,
 ) -> PyResult<PyVoxmap> {
     let fill = match fill {
         "winding" => Fill::Winding,
@@ -219,6 +221,7 @@ pub(crate) fn voxelize(
         layers: layers as u8,
         navigation,
         fill,
+        distances,
     };
     let (voxmap, report) = py.detach(|| vps::voxelize(&mesh.mesh, &params)).or_raise()?;
     Ok(PyVoxmap {

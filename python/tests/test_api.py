@@ -147,6 +147,22 @@ def test_contact_of_a_ball_pressed_into_a_box_pushes_it_out(tmp_path, run_vps):
     assert file_contact.force == c.force
 
 
+def test_contact_interpolates_the_distances_of_a_voxmap_that_has_them(tmp_path):
+    bv, bt = box((-2.0, -2.0, -2.0), (2.0, 2.0, 0.0))  # top face at z = 0
+    wall = vps.voxelize(vps.Mesh(bv, bt), SIZE, distances=True)
+    shell = vps.pointshell(vps.Mesh(*sphere(radius=0.5)), voxel_size=SIZE)
+    pose = (0.1, -0.2, 0.2)
+    smooth = vps.contact(wall, shell, pose)
+    stepped = vps.contact(wall, shell, pose, penetration="layers")
+    assert smooth.force[2] > 0 and stepped.force[2] > 0
+    assert smooth.force != stepped.force
+    # Written as a version 2 file, the same forces.
+    wall.write(tmp_path / "wall.vxm")
+    assert vps.contact(vps.Voxmap.open(tmp_path / "wall.vxm"), shell, pose).force == smooth.force
+    with pytest.raises(ValueError, match="penetration"):
+        vps.contact(wall, shell, pose, penetration="deep")
+
+
 def test_errors_carry_the_library_messages(tmp_path, run_vps):
     missing = tmp_path / "missing.vxm"
     with pytest.raises(vps.StorageError) as e:

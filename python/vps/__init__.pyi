@@ -121,8 +121,10 @@ def voxelize(
     layers: int = 5,
     fill: Literal["winding", "objects", "scene"] = "winding",
     navigation: Literal["auto", "bbox", "zrange", "narrowing"] = "auto",
+    distances: bool = False,
 ) -> Voxmap:
-    """Voxelize a mesh into a voxmap in memory."""
+    """Voxelize a mesh into a voxmap in memory; with distances, each stored voxel's signed
+    distance to the mesh too, which contact interpolates."""
 
 def pointshell(
     mesh: Mesh,
@@ -141,5 +143,6 @@ def contact(
     *,
     stiffness: float = 1.0,
     budget_seconds: Optional[float] = None,
+    penetration: Literal["distance", "layers"] = "distance",
 ) -> Contact:
     """Force and torque of the voxmap on the shell at pose (tx, ty, tz[, qw, qx, qy, qz])."""

@@ -119,6 +119,7 @@ impl Summary<'_> {
                 "surface_seconds": r.t_surface.as_secs_f64(),
                 "fill_seconds": r.t_fill.as_secs_f64(),
                 "layers_seconds": r.t_layers.as_secs_f64(),
+                "distances_seconds": r.t_distances.as_secs_f64(),
                 "peak_rss_bytes": peak_rss_bytes(),
             });
             if let (Some((serde_json::Value::Object(more), _)), Some(obj)) = (&extra, j.as_object_mut()) {
@@ -153,10 +154,11 @@ impl Summary<'_> {
             outln!("  bricks stored    {}", c.bricks_stored);
             outln!("  file             {} bytes", w.file_bytes);
             outln!(
-                "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3})",
+                "  time             {secs:.3} s (surface {:.3}, fill {:.3}, layers {:.3}, distances {:.3})",
                 r.t_surface.as_secs_f64(),
                 r.t_fill.as_secs_f64(),
-                r.t_layers.as_secs_f64()
+                r.t_layers.as_secs_f64(),
+                r.t_distances.as_secs_f64()
             );
             if let Some(rss) = peak_rss_bytes() {
                 outln!("  peak RSS         {:.1} MiB", rss as f64 / (1 << 20) as f64);

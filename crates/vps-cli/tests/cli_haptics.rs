@@ -428,3 +428,80 @@ fn bench_slides_on_a_tilted_box() {
     let o = vps(&["haptics-bench", "--tilted-box", "--tilts", "0,nan"]);
     assert_clean_failure(&o, "--tilts");
 }
+
+/// `vps voxelize --distance` writes a version 2 file, whose queries use the interpolated
+/// distance unless `--penetration layers` asks for the old formula; it refuses
+/// `--memory-limit`, which does not compute distances yet.
+#[test]
+fn voxelize_with_distances_writes_version_2_and_contact_uses_it() {
+    let f = fixture();
+    let obj = f.dir.path().join("ball.obj");
+    let ball = Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 10.0, 24, 48)).unwrap();
+    vps::mesh::obj_write::write_obj_file(&ball, &obj).unwrap();
+    let out = f.dir.path().join("ball2.vxm");
+    let (obj_s, out_s) = (p(&obj), p(&out));
+    let v = json(&vps(&[
+        "voxelize",
+        obj_s,
+        "--voxel-size",
+        "0.5",
+        "--layers",
+        "3",
+        "--distance",
+        "-o",
+        out_s,
+        "--json",
+    ]));
+    assert!(v["distances_seconds"].as_f64().unwrap() > 0.0, "{v}");
+    let info = json(&vps(&["info", out_s, "--json"]));
+    assert_eq!(info["format_version"], 2, "{info}");
+    let query = |vxm: &str, penetration: &str| {
+        let c = json(&vps(&[
+            "contact",
+            vxm,
+            p(&f.vps),
+            "--pose",
+            TOUCHING,
+            "--penetration",
+            penetration,
+            "--json",
+        ]));
+        vec3(&c["force"])
+    };
+    let (distance, layers) = (query(out_s, "distance"), query(out_s, "layers"));
+    assert!(distance.length() > 0.0 && layers.length() > 0.0);
+    assert_ne!(distance, layers);
+    // The version 1 file of the same ball has no distances: both ask for the layers.
+    let old = |penetration: &str| query(p(&f.vxm), penetration);
+    assert_eq!(old("distance"), old("layers"));
+    // The distances drawn, and refused for the version 1 file.
+    let png = f.dir.path().join("d.png");
+    let o = vps(&["slice", out_s, "--axis", "z", "--at", "0", "--distance", "-o", p(&png)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let o = vps(&[
+        "slice",
+        p(&f.vxm),
+        "--axis",
+        "z",
+        "--at",
+        "0",
+        "--distance",
+        "-o",
+        p(&png),
+    ]);
+    assert_clean_failure(&o, "no signed distances");
+    let o = vps(&[
+        "voxelize",
+        obj_s,
+        "--voxel-size",
+        "0.5",
+        "--distance",
+        "--memory-limit",
+        "1GiB",
+        "-o",
+        out_s,
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--memory-limit"), "{}", stderr(&o));
+}

@@ -59,3 +59,38 @@ fn a_ball_pressed_and_slid_on_a_slab_feels_a_smooth_force() {
         assert!(spread <= 0.02 * mean, "top {top}: forces {forces:?}");
     }
 }
+
+/// A voxmap with distances written as a version 2 file and mapped gives the same forces, bit
+/// for bit, as in memory; the same voxmap without distances (version 1) falls back to layers.
+#[test]
+fn a_version_2_file_queries_as_the_voxmap_in_memory() {
+    let p = distance_fixture();
+    let vps::haptics::VoxmapSource::Memory(vm) = p.voxmap.source() else {
+        panic!("the fixture is in memory");
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.vxm");
+    vps::write_voxmap(&path, vm).unwrap();
+    let file = vps::CachedVoxmap::open(&path).unwrap();
+    assert!(file.has_distances());
+    let layers_only = vps::Voxmap::from_parts(*vm.grid(), vm.layers(), vm.bricks().to_vec(), vm.inside_runs().to_vec());
+    let layers_only = vps::CachedVoxmap::in_memory(layers_only);
+    let as_layers = ContactParams {
+        penetration: Penetration::Layers,
+        ..Default::default()
+    };
+    for t in [[2.0, 0.0, 0.3], [-3.0, 0.5, 1.0], [0.0, -3.0, 1.4]] {
+        let pose = Pose::new(t, [0.9, 0.1, -0.3, 0.2]).unwrap();
+        let mem = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
+        let mapped = contact(&file, &p.shell, &pose, &ContactParams::default()).unwrap();
+        assert_eq!((mem.force, mem.torque), (mapped.force, mapped.torque), "pose {t:?}");
+        assert_eq!(mem.points_in_contact, mapped.points_in_contact);
+        let fallback = contact(&layers_only, &p.shell, &pose, &ContactParams::default()).unwrap();
+        let layers = contact(&p.voxmap, &p.shell, &pose, &as_layers).unwrap();
+        assert_eq!(
+            (fallback.force, fallback.torque),
+            (layers.force, layers.torque),
+            "pose {t:?}"
+        );
+    }
+}

@@ -55,7 +55,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     let r = f.verify()?;
     outln!("verified {} bricks", r.bricks_checked);
     let png = out_dir.join("demo_slice.png");
-    write_slice(&f, Axis::Z, Some(30.0), None, &png)?;
+    write_slice(&f, Axis::Z, Some(30.0), None, false, &png)?;
     outln!("slice z = 30 written to {}", png.display());
     let probes = [
         DVec3::new(30.0, 30.0, 30.0),

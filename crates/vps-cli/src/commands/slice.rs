@@ -35,33 +35,47 @@ pub struct SliceArgs {
     /// Output PNG.
     #[arg(short, long)]
     output: PathBuf,
+    /// Draw the signed distances (a file voxelized with --distance) instead of the values.
+    #[arg(long)]
+    distance: bool,
 }
 
 /// Write the picture and say how many voxels it shows.
 pub fn run(a: SliceArgs) -> Result<()> {
     let f = open_voxmap(&a.file)?;
     interrupt::clean_beside(&a.output)?;
-    let (w, h) = write_slice(&f, a.axis, a.at, a.index, &a.output)?;
+    let (w, h) = write_slice(&f, a.axis, a.at, a.index, a.distance, &a.output)?;
     outln!("wrote {} ({w}×{h} voxels)", a.output.display());
     Ok(())
 }
 
-/// Extract a slice, at a world coordinate or a voxel index, and write its picture; returns its
-/// size in voxels.
+/// The voxel index of the slice: `index`, or the one through world coordinate `at`.
+fn slice_index(f: &VoxmapFile, axis: Axis, at: Option<f64>, index: Option<u32>) -> Result<u32> {
+    Ok(match (at, index) {
+        (_, Some(i)) => i,
+        (Some(w), None) => vps::storage::slice::slice_index_at(f.grid(), axis as usize, w)?,
+        (None, None) => bail!("give --at or --index"),
+    })
+}
+
+/// Extract a slice, at a world coordinate or a voxel index, and write its picture: of the
+/// values, or with `distance` of the signed distances; returns its size in voxels.
 pub fn write_slice(
     f: &VoxmapFile,
     axis: Axis,
     at: Option<f64>,
     index: Option<u32>,
+    distance: bool,
     output: &Path,
 ) -> Result<(u32, u32)> {
-    let a = axis as usize;
-    let k = match (at, index) {
-        (_, Some(i)) => i,
-        (Some(w), None) => vps::storage::slice::slice_index_at(f.grid(), a, w)?,
-        (None, None) => bail!("give --at or --index"),
-    };
-    let s = f.slice(a, k)?;
+    let k = slice_index(f, axis, at, index)?;
+    if distance {
+        let s = f.distance_slice(axis as usize, k)?;
+        let reach = vps::voxmap::distance_reach(f.layers());
+        crate::render::distance::distance_png(&s.steps, s.width, s.height, vps::voxmap::DISTANCE_STEP, reach, output)?;
+        return Ok((s.width, s.height));
+    }
+    let s = f.slice(axis as usize, k)?;
     crate::render::slice_png(&s.values, s.width, s.height, f.layers(), output)?;
     Ok((s.width, s.height))
 }

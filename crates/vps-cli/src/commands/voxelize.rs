@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 
 use vps::out_of_core::budget;
@@ -65,6 +65,10 @@ pub struct VoxelizeArgs {
     /// Directory for spill files with --memory-limit (default: the output's directory).
     #[arg(long, requires = "memory_limit")]
     tmp_dir: Option<PathBuf>,
+    /// Also store every stored voxel's signed distance to the mesh (a version 2 file), for
+    /// the haptic query's interpolated penetration. In memory only for now.
+    #[arg(long, conflicts_with = "memory_limit")]
+    distance: bool,
     /// Print the summary as one JSON object.
     #[arg(long)]
     json: bool,
@@ -75,6 +79,7 @@ pub struct VoxelizeArgs {
 pub fn run(a: VoxelizeArgs) -> Result<()> {
     let mut params = voxelize_params(a.voxel_size, a.layers, a.navigation.into())?;
     params.fill = a.fill.into();
+    params.distances = a.distance;
     let tmp_dir = a.tmp_dir.as_deref();
     if let Some(limit) = a.memory_limit {
         return out_of_core::run(
@@ -99,6 +104,13 @@ pub fn run(a: VoxelizeArgs) -> Result<()> {
             estimate.surface_voxels,
             human_bytes(budget)
         );
+        if params.distances {
+            bail!(
+                "--distance is computed in memory only, and this run needs about {}, more than the budget of {}:                  raise VPS_MEMORY_BUDGET or leave out --distance",
+                human_bytes(estimate.peak_bytes),
+                human_bytes(budget)
+            );
+        }
         let input = out_of_core::Input::Loaded(mesh);
         return out_of_core::run(input, &params, &a.output, budget, tmp_dir, a.json);
     }

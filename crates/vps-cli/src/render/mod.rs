@@ -10,6 +10,7 @@ use std::sync::Once;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, Color, FontStyle, IntoFont, RGBColor, TextStyle};
 
+pub mod distance;
 pub mod palette;
 pub mod plot;
 pub mod slice;

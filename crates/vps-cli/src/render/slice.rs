@@ -44,14 +44,22 @@ fn scale_for(width: u32, height: u32) -> (u32, u32) {
 
 /// Shrink by `d` voxels per pixel, keeping in each block the value nearest the surface
 /// (smallest |v|, outside first on ties): a majority vote would erase the one-voxel surface
-/// shell and thin leaks, which are what the picture is for.
-fn shrink_values(values: &[i8], width: u32, height: u32, d: u32) -> (Vec<i8>, u32, u32) {
+/// shell and thin leaks, which are what the picture is for. Values and distances alike.
+pub(super) fn shrink_nearest_surface<T: Copy + Into<i32> + Default>(
+    values: &[T],
+    width: u32,
+    height: u32,
+    d: u32,
+) -> (Vec<T>, u32, u32) {
     let (ow, oh) = (width.div_ceil(d), height.div_ceil(d));
-    let mut out = vec![0i8; ow as usize * oh as usize];
+    let mut out = vec![T::default(); ow as usize * oh as usize];
+    let key = |v: T| {
+        let v: i32 = v.into();
+        (v.abs(), v)
+    };
     for oy in 0..oh {
         for ox in 0..ow {
-            let mut best = i8::MAX;
-            let key = |v: i8| ((v as i16).abs(), v);
+            let mut best = values[(oy * d * width + ox * d) as usize];
             for y in oy * d..((oy + 1) * d).min(height) {
                 let row = &values[(y * width) as usize..][..width as usize];
                 for &v in &row[(ox * d) as usize..((ox + 1) * d).min(width) as usize] {
@@ -73,45 +81,100 @@ fn shrink_values(values: &[i8], width: u32, height: u32, d: u32) -> (Vec<i8>, u3
 /// shrunk (see [`MAX_LONG_SIDE`]) keeping the value nearest the surface in each block. The
 /// legend band, [`LEGEND_HEIGHT`] pixels, lies under the slice.
 pub fn slice_rgba(values: &[i8], width: u32, height: u32, layers: u8) -> Result<RgbaImage, RenderError> {
-    let bad = || RenderError::BadSize {
-        width,
-        height,
-        len: values.len(),
-    };
-    let count = (width as usize).checked_mul(height as usize).ok_or_else(bad)?;
-    if count == 0 || count != values.len() {
-        return Err(bad());
-    }
-    let (zoom, shrink) = scale_for(width, height);
-    let shrunk;
-    let (src, sw, sh) = if shrink > 1 {
-        shrunk = shrink_values(values, width, height, shrink);
-        (&shrunk.0[..], shrunk.1, shrunk.2)
-    } else {
-        (values, width, height)
-    };
-    let (slice_width, slice_height) = (sw * zoom, sh * zoom);
-    let canvas_width = slice_width.max(MIN_CANVAS_WIDTH);
-    let canvas_height = slice_height + LEGEND_HEIGHT;
-    let mut pixels = canvas(canvas_width, canvas_height, BACKGROUND);
+    let mut f = Framed::new(values, width, height, shrink_nearest_surface)?;
     // The slice is one colour per voxel, copied in rows: a blit, not drawing. A table of the
     // 256 possible values saves working out a colour per pixel.
     let lut: Vec<[u8; 3]> = (0..=255u8).map(|b| value_colour(b as i8, layers)).collect();
-    for y in 0..slice_height {
+    let (zoom, sw) = (f.zoom, f.src_width);
+    let src = std::mem::take(&mut f.src);
+    for y in 0..f.slice_height {
         let row = &src[((y / zoom) * sw) as usize..][..sw as usize];
-        let line = &mut pixels[(y as usize * canvas_width as usize * 3)..][..slice_width as usize * 3];
-        for (x, px) in line.chunks_exact_mut(3).enumerate() {
+        for (x, px) in f.row_mut(y).chunks_exact_mut(3).enumerate() {
             px.copy_from_slice(&lut[row[x / zoom as usize] as u8 as usize]);
         }
     }
-    draw_legend(&mut pixels, (canvas_width, canvas_height), slice_height, layers)?;
-    Ok(RgbaImage {
-        slice_width,
-        slice_height,
-        zoom,
-        shrink,
-        ..RgbaImage::from_rgb(canvas_width, canvas_height, &pixels)
-    })
+    f.finish(|pixels, size, top| draw_legend(pixels, size, top, layers))
+}
+
+/// A slice picture being drawn: the slice's values at the picture's scale (shrunk if it is
+/// large), and the canvas with room for the slice and the legend under it.
+pub(super) struct Framed<T> {
+    /// The values to draw, `src_width` a row, row 0 at the top.
+    pub(super) src: Vec<T>,
+    pub(super) src_width: u32,
+    pub(super) src_height: u32,
+    /// Pixels per value.
+    pub(super) zoom: u32,
+    shrink: u32,
+    pub(super) slice_width: u32,
+    pub(super) slice_height: u32,
+    canvas_width: u32,
+    canvas_height: u32,
+    pixels: Vec<u8>,
+}
+
+impl<T: Copy> Framed<T> {
+    /// Check that `values` holds `width × height` values, scale them (shrinking with
+    /// `shrink`, which keeps one value a block) and set up the canvas.
+    pub(super) fn new(
+        values: &[T],
+        width: u32,
+        height: u32,
+        shrink: impl Fn(&[T], u32, u32, u32) -> (Vec<T>, u32, u32),
+    ) -> Result<Framed<T>, RenderError> {
+        let bad = || RenderError::BadSize {
+            width,
+            height,
+            len: values.len(),
+        };
+        let count = (width as usize).checked_mul(height as usize).ok_or_else(bad)?;
+        if count == 0 || count != values.len() {
+            return Err(bad());
+        }
+        let (zoom, shrink_by) = scale_for(width, height);
+        let (src, src_width, src_height) = if shrink_by > 1 {
+            shrink(values, width, height, shrink_by)
+        } else {
+            (values.to_vec(), width, height)
+        };
+        let (slice_width, slice_height) = (src_width * zoom, src_height * zoom);
+        let canvas_width = slice_width.max(MIN_CANVAS_WIDTH);
+        let canvas_height = slice_height + LEGEND_HEIGHT;
+        Ok(Framed {
+            src,
+            src_width,
+            src_height,
+            zoom,
+            shrink: shrink_by,
+            slice_width,
+            slice_height,
+            canvas_width,
+            canvas_height,
+            pixels: canvas(canvas_width, canvas_height, BACKGROUND),
+        })
+    }
+
+    /// The RGB bytes of the slice's pixel row `y`.
+    pub(super) fn row_mut(&mut self, y: u32) -> &mut [u8] {
+        &mut self.pixels[(y as usize * self.canvas_width as usize * 3)..][..self.slice_width as usize * 3]
+    }
+
+    /// Draw the legend under the slice with `legend` (pixels, canvas size, the slice's
+    /// height) and return the picture.
+    pub(super) fn finish(
+        mut self,
+        legend: impl FnOnce(&mut [u8], (u32, u32), u32) -> Result<(), RenderError>,
+    ) -> Result<RgbaImage, RenderError> {
+        let size = (self.canvas_width, self.canvas_height);
+        legend(&mut self.pixels, size, self.slice_height)?;
+        Ok(RgbaImage {
+            slice_width: self.slice_width,
+            slice_height: self.slice_height,
+            zoom: self.zoom,
+            shrink: self.shrink,
+            ..RgbaImage::from_rgb(size.0, size.1, &self.pixels)
+        })
+    }
 }
 
 /// Gap between legend segments, so the deepest ramp colour and the solid swatch next to it

@@ -45,6 +45,9 @@ pub enum GenerateError {
     /// The run was stopped by its caller (Ctrl-C).
     #[error("cancelled")]
     Cancelled,
+    /// What was asked is not done on this path yet.
+    #[error("not supported: {0}")]
+    Unsupported(String),
     /// The memory limit is too small for this mesh and grid.
     #[error("memory limit too small: {what} needs about {} MiB, and the limit leaves {} MiB for it", need >> 20, limit >> 20)]
     MemoryLimit {
@@ -68,6 +71,11 @@ pub struct VoxelizeParams {
     pub navigation: Navigation,
     /// Which voxels are inside.
     pub fill: Fill,
+    /// Also compute every stored voxel's signed distance to the mesh
+    /// ([`signed_distance::signed_distances`]), for the haptic query's interpolated
+    /// penetration; a voxmap with distances is written as `.vxm` version 2. In memory only
+    /// for now: [`crate::out_of_core`] refuses it.
+    pub distances: bool,
 }
 
 impl VoxelizeParams {
@@ -106,6 +114,7 @@ impl Default for VoxelizeParams {
             layers: 5,
             navigation: Navigation::Auto,
             fill: Fill::Winding,
+            distances: false,
         }
     }
 }
@@ -141,6 +150,8 @@ pub struct VoxelizeReport {
     pub t_fill: Duration,
     /// Time of the layers and brick assembly.
     pub t_layers: Duration,
+    /// Time of the signed distances (zero without them).
+    pub t_distances: Duration,
 }
 
 /// Callback told of each phase as it starts: (phase name).
@@ -202,8 +213,15 @@ pub fn voxelize_with(
         Some(inside) => Solid::Objects(inside),
     };
     report.t_fill = t.elapsed();
-    let voxmap = assemble(grid, params.layers, &surface.bricks, &solid, &mut report, phase);
+    let mut voxmap = assemble(grid, params.layers, &surface.bricks, &solid, &mut report, phase);
     report.leaks = voxmap.counts().inner_voxels == 0;
+    if params.distances {
+        phase("distances");
+        let t = Instant::now();
+        let distances = signed_distance::signed_distances(mesh, &voxmap);
+        voxmap = voxmap.with_distances(distances);
+        report.t_distances = t.elapsed();
+    }
     Ok((voxmap, report))
 }
 

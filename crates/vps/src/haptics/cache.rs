@@ -21,9 +21,7 @@ use rustc_hash::FxHashMap;
 use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
 use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
-use crate::voxmap::{
-    far_distance, outside_value, BrickDistances, BrickSlot, BrickValues, Voxmap, VoxmapCounts, DISTANCE_STEP,
-};
+use crate::voxmap::{far_distance, outside_value, BrickSlot, StoredBrick, Voxmap, VoxmapCounts, DISTANCE_STEP};
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -32,17 +30,7 @@ const SHARDS: usize = 64;
 pub const DEFAULT_CACHE_BYTES: usize = 256 << 20;
 
 /// What the cache holds for one brick key: a tile, or a stored brick shared between cursors.
-pub type Slot = BrickSlot<Arc<CachedBrick>>;
-
-/// A stored brick as the cache holds it: its values and, if the voxmap carries them, its
-/// signed distances.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CachedBrick {
-    /// The values.
-    pub values: BrickValues,
-    /// The signed distances, in steps of [`DISTANCE_STEP`] voxels.
-    pub distances: Option<BrickDistances>,
-}
+pub type Slot = BrickSlot<Arc<StoredBrick>>;
 
 /// Cache counters, for benchmarks and tuning.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -199,7 +187,7 @@ impl CachedVoxmap {
     /// Whether the voxmap carries signed distances (see [`Voxmap::with_distances`]).
     pub fn has_distances(&self) -> bool {
         match &self.source {
-            Source::File(_) => false,
+            Source::File(f) => f.header().has_distances(),
             Source::Memory(v) => v.distances().is_some(),
         }
     }
@@ -232,18 +220,13 @@ impl CachedVoxmap {
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
-            Source::File(f) => f.brick(key)?.map(|values| {
-                Arc::new(CachedBrick {
-                    values: *values,
-                    distances: None,
-                })
-            }),
+            Source::File(f) => f.stored_brick(key)?.map(Arc::from),
             Source::Memory(v) => v.brick(key).map(|values| {
                 let distances = match v.brick_distances(key) {
                     Some(BrickSlot::Stored(d)) => Some(*d),
                     _ => None,
                 };
-                Arc::new(CachedBrick {
+                Arc::new(StoredBrick {
                     values: *values,
                     distances,
                 })

@@ -16,7 +16,7 @@ mod cache;
 mod query;
 pub mod trajectory;
 
-pub use cache::{CacheStats, CachedBrick, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};
+pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};
 // The query takes a pose; callers name it here or as `vps::Pose`.
 pub use crate::geometry::{Pose, PoseError};
 pub use query::{contact, contact_brute_force, Contact, ContactParams, Penetration, BLOCK_POINTS};

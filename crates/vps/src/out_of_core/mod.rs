@@ -125,6 +125,11 @@ pub fn voxelize_bounded(
     output: &Path,
     opts: &Bounded,
 ) -> Result<BoundedReport, GenerateError> {
+    if params.distances {
+        return Err(GenerateError::Unsupported(
+            "signed distances out of core (generate in memory, without --memory-limit)".into(),
+        ));
+    }
     let grid = crate::generate::grid_for(mesh, params)?;
     let nb = grid.brick_dims();
     let plane = nb[1] as u64 * nb[2] as u64;

@@ -5,9 +5,18 @@ use super::*;
 
 #[test]
 fn flipping_any_byte_is_caught() {
-    let vm = ball(1, 5.0);
+    flipping_any_byte_of(&ball(1, 5.0));
+}
+
+/// Version 2: the distances are covered as the values are.
+#[test]
+fn flipping_any_byte_of_a_file_with_distances_is_caught() {
+    flipping_any_byte_of(&ball_with_distances(1, 5.0));
+}
+
+fn flipping_any_byte_of(vm: &Voxmap) {
     let dir = tmp();
-    let (_, good) = written(dir.path(), &vm);
+    let (_, good) = written(dir.path(), vm);
     assert!(good.len() < 20_000, "{}", good.len());
     for i in 0..good.len() {
         let mut bad = good.clone();
@@ -20,6 +29,7 @@ fn flipping_any_byte_is_caught() {
                 // Lookups may fail but must not panic.
                 for key in 0..f.grid().brick_count() {
                     let _ = f.brick(key);
+                    let _ = f.stored_brick(key);
                 }
             }
         }

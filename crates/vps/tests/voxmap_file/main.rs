@@ -27,6 +27,27 @@ pub(crate) fn ball(layers: u8, radius: f64) -> Voxmap {
     Voxmap::from_signed_distance(grid, layers, |p| p.length() - radius)
 }
 
+/// [`ball`] carrying the exact signed distances of its stored voxels (a version 2 file).
+pub(crate) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
+    let vm = ball(layers, radius);
+    let grid = *vm.grid();
+    let reach = vps::voxmap::distance_reach(layers);
+    let distances = vm
+        .bricks()
+        .iter()
+        .map(|b| {
+            let base = grid.brick_coords(b.key).map(|c| c * 8);
+            std::array::from_fn(|i| {
+                let l = [i as u32 & 7, (i as u32 >> 3) & 7, i as u32 >> 6];
+                let c = grid.voxel_center([base[0] + l[0], base[1] + l[1], base[2] + l[2]]);
+                let phi = ((radius - c.length()) / grid.voxel_size).clamp(-reach, reach);
+                (phi / vps::voxmap::DISTANCE_STEP).round() as i16
+            })
+        })
+        .collect();
+    vm.with_distances(distances)
+}
+
 pub(crate) fn assert_same(file: &VoxmapFile, vm: &Voxmap) {
     assert_eq!(file.grid(), vm.grid());
     assert_eq!(file.layers(), vm.layers());

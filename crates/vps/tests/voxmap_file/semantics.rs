@@ -56,7 +56,57 @@ pub(super) fn exercise(file: &VoxmapFile) {
     let n = h.grid.brick_count();
     for key in [0, n / 2, n.saturating_sub(1), n, u64::MAX] {
         let _ = file.brick(key);
+        let _ = file.stored_brick(key);
     }
+}
+
+/// A voxmap with distances is written as version 2 and read back whole, distances included;
+/// one without stays version 1; a version 2 header naming codec 1 is refused.
+#[test]
+fn version_2_carries_the_distances_and_version_1_stays() {
+    let dir = tmp();
+    let with = ball_with_distances(2, 9.0);
+    let (path, bytes) = written(dir.path(), &with);
+    let file = VoxmapFile::open(&path).unwrap();
+    assert_eq!(file.header().version, 2);
+    assert!(file.header().has_distances());
+    assert_same(&file, &with);
+    assert_eq!(file.to_voxmap().unwrap(), with);
+    file.verify().unwrap();
+    for (b, d) in with.bricks().iter().zip(with.distances().unwrap()) {
+        match file.stored_brick(b.key).unwrap() {
+            vps::voxmap::BrickSlot::Stored(s) => {
+                assert_eq!(s.values, *b.values);
+                assert_eq!(s.distances.as_ref(), Some(d));
+            }
+            other => panic!("brick {} read as {other:?}", b.key),
+        }
+    }
+    assert!(vps::CachedVoxmap::open(&path).unwrap().has_distances());
+
+    let without = ball(2, 9.0);
+    let (path1, bytes1) = written(dir.path(), &without);
+    let file1 = VoxmapFile::open(&path1).unwrap();
+    assert_eq!(file1.header().version, 1);
+    assert_eq!(file1.to_voxmap().unwrap(), without);
+    assert!(!vps::CachedVoxmap::open(&path1).unwrap().has_distances());
+    assert!(bytes.len() > bytes1.len());
+
+    let mut h = header_of(&bytes);
+    h.codec = 1;
+    h.header_crc = h.compute_crc();
+    let mut bad = bytes.clone();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+    let e = VoxmapFile::from_bytes(&bad).unwrap_err();
+    assert!(matches!(e, StorageError::InvalidHeader { field: "codec", .. }), "{e}");
+
+    // A writer refuses distances out of range, and bricks without distances in version 2.
+    let mut w = VoxmapWriter::create(dir.path().join("b.vxm"), *with.grid(), 2).unwrap();
+    w.with_distances().unwrap();
+    assert!(w.push_bricks(with.bricks()).is_err());
+    let mut far = with.distances().unwrap().to_vec();
+    far[0][0] = 641;
+    assert!(w.push_bricks_with_distances(with.bricks(), &far).is_err());
 }
 
 #[test]

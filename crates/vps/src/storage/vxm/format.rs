@@ -9,14 +9,19 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::grid::BRICK_VOXELS;
-use crate::voxmap::BrickValues;
+use crate::voxmap::{distance_reach, BrickDistances, BrickValues, DISTANCE_STEP};
 
 /// First eight bytes of every `.vxm` file. The `\r\n` and `\x1a` catch transfers that
 /// mangle line endings or stop at an end-of-file character, as in PNG.
 pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
-/// The format version this crate writes and reads.
-pub const VERSION: u32 = 1;
+/// The newest format version, which this crate writes for a voxmap with signed distances:
+/// every payload holds the brick's values and its distances (codec 2).
+pub const VERSION: u32 = 2;
+
+/// The version this crate writes for a voxmap without distances, and still reads: layer
+/// values only (codec 1). Its files are byte for byte what earlier builds wrote.
+pub const VERSION_LAYERS: u32 = 1;
 
 /// Byte offset of the `u32` version: fixed for every version, so that a reader can say
 /// "unsupported version" before it knows where anything else is.
@@ -35,6 +40,19 @@ pub const RUN_ENTRY_BYTES: usize = 16;
 /// values after the "previous voxel" predictor (see [`encode_brick`]).
 pub const CODEC_ZSTD_DELTA: u8 = 1;
 
+/// Codec id of version 2: as [`CODEC_ZSTD_DELTA`], over the values' residuals followed by the
+/// distances' (see [`encode_brick_with_distances`]).
+pub const CODEC_ZSTD_DELTA_DISTANCE: u8 = 2;
+
+/// The codec of each version.
+pub fn codec_of(version: u32) -> u8 {
+    if version == VERSION {
+        CODEC_ZSTD_DELTA_DISTANCE
+    } else {
+        CODEC_ZSTD_DELTA
+    }
+}
+
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
 /// Nefertiti scan voxelized into a 3.4·10⁸-voxel grid (65,106 stored bricks), level 1 wrote
 /// the file in 0.30–0.37 s at 0.25 bytes per stored voxel, level 3 in 0.65–0.70 s at 0.22 and
@@ -45,6 +63,23 @@ pub const ZSTD_LEVEL: i32 = 1;
 /// Largest payload a valid file can hold. zstd's worst case for 512 bytes is 577, so
 /// anything longer is corruption; the bound also caps the reader's frame buffer.
 pub const MAX_PAYLOAD_BYTES: usize = 1024;
+
+/// Largest payload of codec 2, whose frames hold 1,536 bytes (zstd's worst case is under
+/// 1,600).
+pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
+
+/// The payload limit of `codec`.
+pub fn max_payload_bytes(codec: u8) -> usize {
+    if codec == CODEC_ZSTD_DELTA_DISTANCE {
+        MAX_PAYLOAD_BYTES_DISTANCE
+    } else {
+        MAX_PAYLOAD_BYTES
+    }
+}
+
+/// Bytes a codec-2 frame decompresses to: 512 value residuals, then the 512 low bytes and the
+/// 512 high bytes of the distance residuals.
+const DISTANCE_FRAME_BYTES: usize = 3 * BRICK_VOXELS;
 
 /// The magic number that starts a zstd frame; payloads store frames without it.
 const ZSTD_FRAME_MAGIC: [u8; 4] = 0xFD2F_B528u32.to_le_bytes();
@@ -206,6 +241,58 @@ pub fn encode_brick(compressor: &mut zstd::bulk::Compressor<'_>, values: &BrickV
     }
 }
 
+/// The prediction of distance `i` from those before it: the voxel before along x, or for the
+/// first of a row the one below in y, or for the first of a slice the one below in z, as for
+/// the values. Measured on Nefertiti (voxels of 0.5225, 5 layers, 65,106 bricks, steps of
+/// 1/32): 15.79 MB with this, 15.90 with the plane through three neighbours in the same
+/// slice, 16.54 with the line through the two before along x.
+#[inline]
+fn distance_prediction(d: &BrickDistances, i: usize) -> i16 {
+    if i & 7 != 0 {
+        d[i - 1]
+    } else if i & 63 != 0 {
+        d[i - 8]
+    } else if i != 0 {
+        d[i - 64]
+    } else {
+        0
+    }
+}
+
+/// `0, -1, 1, -2, 2, …` to `0, 1, 2, 3, 4, …`: small magnitudes to small numbers.
+#[inline]
+fn zigzag(r: i16) -> u16 {
+    ((r << 1) ^ (r >> 15)) as u16
+}
+
+/// The inverse of [`zigzag`].
+#[inline]
+fn unzigzag(z: u16) -> i16 {
+    ((z >> 1) as i16) ^ -((z & 1) as i16)
+}
+
+/// Compress one brick with its distances into a codec-2 payload.
+pub fn encode_brick_with_distances(
+    compressor: &mut zstd::bulk::Compressor<'_>,
+    values: &BrickValues,
+    distances: &BrickDistances,
+) -> std::io::Result<Vec<u8>> {
+    let mut raw = [0u8; DISTANCE_FRAME_BYTES];
+    raw[..BRICK_VOXELS].copy_from_slice(&predict(values));
+    for i in 0..BRICK_VOXELS {
+        let r = zigzag(distances[i].wrapping_sub(distance_prediction(distances, i)));
+        // Low bytes and high bytes apart: zigzagged, small residuals of either sign have a
+        // high byte of 0.
+        raw[BRICK_VOXELS + i] = r as u8;
+        raw[2 * BRICK_VOXELS + i] = (r >> 8) as u8;
+    }
+    let frame = compressor.compress(&raw)?;
+    match frame.strip_prefix(&ZSTD_FRAME_MAGIC[..]) {
+        Some(rest) if rest.len() <= MAX_PAYLOAD_BYTES_DISTANCE => Ok(rest.to_vec()),
+        _ => Err(std::io::Error::other("zstd produced an unexpected frame")),
+    }
+}
+
 /// A zstd compressor set up as the writer uses it.
 pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
     let mut c = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
@@ -246,18 +333,14 @@ pub enum DecodeError {
     },
 }
 
-/// Decompress one payload and check it holds 512 values within `[-(layers+1), layers+1]`.
-///
-/// The error says why; the caller knows which brick it was. A decompression context is
-/// kept per thread because creating one costs more than decompressing a brick.
-pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeError> {
-    if payload.len() > MAX_PAYLOAD_BYTES {
+/// Decompress `payload` (a frame without its magic) into `out`, which it must fill exactly.
+fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeError> {
+    if payload.len() > max {
         return Err(DecodeError::Malformed(format!(
-            "payload of {} bytes exceeds the limit of {MAX_PAYLOAD_BYTES}",
+            "payload of {} bytes exceeds the limit of {max}",
             payload.len()
         )));
     }
-    let mut residuals = [0u8; BRICK_VOXELS];
     let n = DECODER
         .with(|cell| -> Result<usize, String> {
             let mut slot = cell.try_borrow_mut().map_err(|e| e.to_string())?;
@@ -265,7 +348,7 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeErr
                 Some(state) => state,
                 empty => empty.insert(DecodeState {
                     zstd: zstd::bulk::Decompressor::new().map_err(|e| format!("zstd: {e}"))?,
-                    frame: Vec::with_capacity(MAX_PAYLOAD_BYTES + 4),
+                    frame: Vec::with_capacity(MAX_PAYLOAD_BYTES_DISTANCE + 4),
                 }),
             };
             state.frame.clear();
@@ -273,16 +356,22 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeErr
             state.frame.extend_from_slice(payload);
             state
                 .zstd
-                .decompress_to_buffer(&state.frame[..], &mut residuals[..])
+                .decompress_to_buffer(&state.frame[..], &mut *out)
                 .map_err(|e| format!("zstd: {e}"))
         })
         .map_err(DecodeError::Malformed)?;
-    if n != BRICK_VOXELS {
+    if n != out.len() {
         return Err(DecodeError::Malformed(format!(
-            "decompressed to {n} bytes instead of {BRICK_VOXELS}"
+            "decompressed to {n} bytes instead of {}",
+            out.len()
         )));
     }
-    let values = unpredict(&residuals);
+    Ok(())
+}
+
+/// The values of value residuals, checked within `[-(layers+1), layers+1]`.
+fn checked_values(residuals: &[u8; BRICK_VOXELS], layers: u8) -> Result<BrickValues, DecodeError> {
+    let values = unpredict(residuals);
     let limit = i8::try_from(layers as u16 + 1).unwrap_or(i8::MAX);
     // Checked without branches first, since almost every brick passes.
     if values.iter().fold(true, |ok, &v| ok & (-limit..=limit).contains(&v)) {
@@ -294,6 +383,52 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeErr
         value: values[voxel],
         limit: limit as i16,
     })
+}
+
+/// Decompress one payload of codec 1 and check it holds 512 values within
+/// `[-(layers+1), layers+1]`.
+///
+/// The error says why; the caller knows which brick it was. A decompression context is
+/// kept per thread because creating one costs more than decompressing a brick.
+pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeError> {
+    let mut residuals = [0u8; BRICK_VOXELS];
+    decompress(payload, &mut residuals, MAX_PAYLOAD_BYTES)?;
+    checked_values(&residuals, layers)
+}
+
+/// Decompress one payload of codec 2: the values, checked as [`decode_brick`] does, and the
+/// distances, each within ± the reach of `layers` (in steps).
+pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickValues, BrickDistances), DecodeError> {
+    let mut raw = [0u8; DISTANCE_FRAME_BYTES];
+    decompress(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
+    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
+    let values = checked_values(residuals, layers)?;
+    let mut d = [0i16; BRICK_VOXELS];
+    for i in 0..BRICK_VOXELS {
+        let r = raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8;
+        d[i] = distance_prediction(&d, i).wrapping_add(unzigzag(r));
+    }
+    let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
+    if let Some(voxel) = d.iter().position(|&x| (x as i32).abs() > limit) {
+        return Err(DecodeError::Malformed(format!(
+            "voxel {voxel} has distance {} steps, beyond the reach of {limit}",
+            d[voxel]
+        )));
+    }
+    Ok((values, d))
+}
+
+/// Decode a payload of `codec`: the values, and the distances for codec 2.
+pub fn decode_payload(
+    payload: &[u8],
+    layers: u8,
+    codec: u8,
+) -> Result<(BrickValues, Option<BrickDistances>), DecodeError> {
+    if codec == CODEC_ZSTD_DELTA_DISTANCE {
+        decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d)))
+    } else {
+        decode_brick(payload, layers).map(|v| (v, None))
+    }
 }
 
 #[cfg(test)]
@@ -354,5 +489,42 @@ mod tests {
         assert!(decode_brick(&[], 2).is_err());
         assert!(decode_brick(&p[..p.len() - 1], 2).is_err());
         assert!(decode_brick(&[0u8; 2000], 2).is_err());
+    }
+
+    #[test]
+    fn zigzag_round_trips_every_residual() {
+        for r in i16::MIN..=i16::MAX {
+            assert_eq!(unzigzag(zigzag(r)), r);
+        }
+        assert_eq!([0, -1, 1, -2].map(zigzag), [0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn distance_codec_round_trips_and_rejects_junk() {
+        let mut c = new_compressor().unwrap();
+        let mut v = [-3i8; BRICK_VOXELS];
+        v[100] = 0;
+        // A plane's distances in voxels, rounded to the step, clamped at -3.5 (the reach of 3
+        // layers); one voxel 2.7 voxels away, within the reach of 3 layers, not of 2 (2.5).
+        let steps = |voxels: f64| (voxels / DISTANCE_STEP).round() as i16;
+        let mut d = [0i16; BRICK_VOXELS];
+        for (i, x) in d.iter_mut().enumerate() {
+            let along = 0.37 * (i & 7) as f64 + 0.21 * ((i >> 3) & 7) as f64 - 0.13 * (i >> 6) as f64;
+            *x = steps((along - 2.0).max(-3.5));
+        }
+        d[5] = steps(2.7);
+        let p = encode_brick_with_distances(&mut c, &v, &d).unwrap();
+        assert!(p.len() < 300, "{}", p.len());
+        assert_eq!(decode_brick_with_distances(&p, 3).unwrap(), (v, d));
+        assert_eq!(decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE).unwrap(), (v, Some(d)));
+        // With 2 layers the values of -3 are in range, the distance of 2.7 voxels is not.
+        assert!(matches!(decode_brick_with_distances(&p, 2), Err(DecodeError::Malformed(m)) if m.contains("distance")));
+        assert!(matches!(
+            decode_brick_with_distances(&p, 1),
+            Err(DecodeError::ValueOutOfRange { .. })
+        ));
+        assert!(decode_brick(&p, 3).is_err());
+        assert!(decode_brick_with_distances(&p[..p.len() - 1], 3).is_err());
+        assert!(decode_brick_with_distances(&[0u8; 3000], 3).is_err());
     }
 }

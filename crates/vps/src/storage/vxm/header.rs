@@ -115,10 +115,11 @@ pub(super) fn check_counts(h: &RawHeader, brick_count: u64) -> Result<(), (&'sta
         ));
     }
     let payload = h.payload_bytes as u128;
-    if payload < stored || payload > stored * MAX_PAYLOAD_BYTES as u128 {
+    let max = max_payload_bytes(h.codec);
+    if payload < stored || payload > stored * max as u128 {
         return Err((
             "payload_bytes",
-            format!("{payload} for {stored} payloads of 1 to {MAX_PAYLOAD_BYTES} bytes each"),
+            format!("{payload} for {stored} payloads of 1 to {max} bytes each"),
         ));
     }
     Ok(())
@@ -147,7 +148,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         .and_then(|b| b.try_into().ok())
         .map(u32::from_le_bytes)
         .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
-    if version != VERSION {
+    if version != VERSION && version != VERSION_LAYERS {
         return Err(StorageError::UnsupportedVersion {
             kind: ".vxm voxmap",
             path: path.to_path_buf(),
@@ -188,8 +189,15 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
             ),
         ));
     }
-    if h.codec != CODEC_ZSTD_DELTA {
-        return Err(field("codec", format!("unknown codec {}", h.codec)));
+    if h.codec != codec_of(version) {
+        return Err(field(
+            "codec",
+            format!(
+                "codec {} in a version {version} file, which uses {}",
+                h.codec,
+                codec_of(version)
+            ),
+        ));
     }
     if h.layers > MAX_LAYERS {
         return Err(field("layers", format!("{}, at most {MAX_LAYERS}", h.layers)));

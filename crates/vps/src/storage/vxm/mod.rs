@@ -29,11 +29,13 @@ use super::temp::{self, TempOutput};
 use super::{mmap, StorageError};
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
 use crate::voxmap::{
-    inside_value, outside_value, Brick, BrickSlot, BrickValues, KeyRange, Voxmap, VoxmapCounts, MAX_LAYERS,
+    far_distance, inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues, KeyRange, StoredBrick,
+    Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
 };
 use format::{
-    align8, decode_brick, encode_brick, new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, CODEC_ZSTD_DELTA,
-    HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, MAX_PAYLOAD_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET,
+    align8, codec_of, decode_payload, encode_brick, encode_brick_with_distances, max_payload_bytes, new_compressor,
+    DecodeError, IndexEntry, RawHeader, RunEntry, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION,
+    VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
 pub(crate) use reader::Backing;

@@ -23,6 +23,13 @@ pub struct Header {
     pub file_bytes: u64,
 }
 
+impl Header {
+    /// Whether the file's bricks carry signed distances (version 2).
+    pub fn has_distances(&self) -> bool {
+        self.version == VERSION
+    }
+}
+
 /// One brick read from a file: a stored brick decompressed, or a uniform tile.
 pub type BrickData = BrickSlot<Box<BrickValues>>;
 
@@ -218,6 +225,15 @@ impl VoxmapFile {
 
     /// Read, check and decompress the brick at position `i` of the index.
     pub(super) fn read_entry(&self, i: usize, e: &IndexEntry) -> Result<BrickValues, StorageError> {
+        self.read_entry_full(i, e).map(|(values, _)| values)
+    }
+
+    /// [`VoxmapFile::read_entry`], with the brick's distances in a version 2 file.
+    pub(super) fn read_entry_full(
+        &self,
+        i: usize,
+        e: &IndexEntry,
+    ) -> Result<(BrickValues, Option<BrickDistances>), StorageError> {
         let payload = self.payload(i, e)?;
         if crc32fast::hash(payload) != e.crc {
             return Err(StorageError::BrickChecksum {
@@ -226,7 +242,8 @@ impl VoxmapFile {
                 key: e.key,
             });
         }
-        decode_brick(payload, self.header.layers).map_err(|err| match err {
+        let codec = codec_of(self.header.version);
+        decode_payload(payload, self.header.layers, codec).map_err(|err| match err {
             DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
                 path: self.path.clone(),
                 key: e.key,
@@ -273,6 +290,17 @@ impl VoxmapFile {
         Ok(BrickData::Tile(self.tile_value(runs, key)))
     }
 
+    /// What brick `key` holds, with its distances in a version 2 file: as [`VoxmapFile::brick`]
+    /// with one decompression for both.
+    pub fn stored_brick(&self, key: u64) -> Result<BrickSlot<Box<StoredBrick>>, StorageError> {
+        let (index, runs) = self.tables()?;
+        if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
+            let (values, distances) = self.read_entry_full(i, &index[i])?;
+            return Ok(BrickSlot::Stored(Box::new(StoredBrick { values, distances })));
+        }
+        Ok(BrickSlot::Tile(self.tile_value(runs, key)))
+    }
+
     pub(super) fn tile_value(&self, runs: &[RunEntry], key: u64) -> i8 {
         let i = runs.partition_point(|r| r.end <= key);
         if runs.get(i).is_some_and(|r| r.start <= key) {
@@ -309,13 +337,13 @@ impl VoxmapFile {
     /// header's counts ([`StorageError::HeaderMismatch`]). The error names the first
     /// contradiction.
     pub fn verify(&self) -> Result<VerifyReport, StorageError> {
-        self.scan(false).map(|(report, _)| report)
+        self.scan(false).map(|(report, _, _)| report)
     }
 
     /// Load the whole file into an in-memory [`Voxmap`], after checking it as
     /// [`VoxmapFile::verify`] does.
     pub fn to_voxmap(&self) -> Result<Voxmap, StorageError> {
-        let (_, bricks) = self.scan(true)?;
+        let (_, bricks, distances) = self.scan(true)?;
         let runs = self
             .inside_runs()?
             .iter()
@@ -324,12 +352,18 @@ impl VoxmapFile {
                 end: r.end,
             })
             .collect();
-        Ok(Voxmap::from_parts(self.header.grid, self.header.layers, bricks, runs))
+        let voxmap = Voxmap::from_parts(self.header.grid, self.header.layers, bricks, runs);
+        Ok(if self.header.has_distances() {
+            voxmap.with_distances(distances)
+        } else {
+            voxmap
+        })
     }
 
-    /// The structure checks of `verify`, then every brick decoded in parallel; bricks are
-    /// kept if `keep`.
-    pub(super) fn scan(&self, keep: bool) -> Result<(VerifyReport, Vec<Brick>), StorageError> {
+    /// The structure checks of `verify`, then every brick decoded in parallel; bricks, and
+    /// their distances in a version 2 file, are kept if `keep`.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn scan(&self, keep: bool) -> Result<(VerifyReport, Vec<Brick>, Vec<BrickDistances>), StorageError> {
         let path = &self.path;
         let (index, runs) = self.tables()?;
         let mut next = self.layout.payload.start as u64;
@@ -359,7 +393,7 @@ impl VoxmapFile {
                     ),
                 ));
             }
-            if e.len as usize > MAX_PAYLOAD_BYTES {
+            if e.len as usize > max_payload_bytes(codec_of(self.header.version)) {
                 return Err(corrupt(
                     path,
                     format!("index entry {i} (key {}): payload length {} is too large", e.key, e.len),
@@ -434,8 +468,9 @@ impl VoxmapFile {
             .map(|(c, chunk)| {
                 let (mut surface, mut inner) = (0u64, 0u64);
                 let mut bricks = Vec::with_capacity(if keep { chunk.len() } else { 0 });
+                let mut distances = Vec::new();
                 for (k, e) in chunk.iter().enumerate() {
-                    let values = self.read_entry(c * 4096 + k, e)?;
+                    let (values, d) = self.read_entry_full(c * 4096 + k, e)?;
                     for &v in values.iter() {
                         surface += (v == 0) as u64;
                         inner += (v > 0) as u64;
@@ -445,9 +480,15 @@ impl VoxmapFile {
                             key: e.key,
                             values: Box::new(values),
                         });
+                        distances.extend(d);
                     }
                 }
-                Ok(ChunkScan { surface, inner, bricks })
+                Ok(ChunkScan {
+                    surface,
+                    inner,
+                    bricks,
+                    distances,
+                })
             })
             .collect();
         let mut counts = VoxmapCounts {
@@ -456,11 +497,13 @@ impl VoxmapFile {
             ..Default::default()
         };
         let mut bricks = Vec::with_capacity(if keep { index.len() } else { 0 });
+        let mut distances = Vec::new();
         for r in chunk_results {
             let chunk = r?;
             counts.surface_voxels += chunk.surface;
             counts.inner_voxels += chunk.inner;
             bricks.extend(chunk.bricks);
+            distances.extend(chunk.distances);
         }
         counts.inner_voxels = inside_tile_bricks
             .checked_mul(BRICK_VOXELS as u64)
@@ -493,7 +536,7 @@ impl VoxmapFile {
             payload_bytes: self.header.payload_bytes,
             file_bytes: self.header.file_bytes,
         };
-        Ok((report, bricks))
+        Ok((report, bricks, distances))
     }
 }
 
@@ -502,4 +545,5 @@ pub(super) struct ChunkScan {
     pub(super) surface: u64,
     pub(super) inner: u64,
     pub(super) bricks: Vec<Brick>,
+    pub(super) distances: Vec<BrickDistances>,
 }

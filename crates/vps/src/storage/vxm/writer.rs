@@ -99,6 +99,8 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
+    /// Whether bricks come with distances: version 2 (see [`VoxmapWriter::with_distances`]).
+    pub(super) distances: bool,
 }
 
 impl std::fmt::Debug for VoxmapWriter {
@@ -142,6 +144,7 @@ impl VoxmapWriter {
             surface_voxels: 0,
             inner_voxels: 0,
             compressor,
+            distances: false,
         };
         // Room for the header, which is written last, once the counts are known.
         writer.write(&[0u8; HEADER_BYTES])?;
@@ -161,6 +164,16 @@ impl VoxmapWriter {
             source,
         })?;
         self.index.spill = Some(BufWriter::with_capacity(1 << 20, file));
+        Ok(())
+    }
+
+    /// Write a version 2 file, whose bricks carry signed distances: bricks must then come
+    /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
+    pub fn with_distances(&mut self) -> Result<(), StorageError> {
+        if self.index.len() > 0 {
+            return Err(self.invalid("with_distances after the first brick".into()));
+        }
+        self.distances = true;
         Ok(())
     }
 
@@ -238,6 +251,7 @@ impl VoxmapWriter {
 
     /// Append one brick; keys must strictly increase.
     pub fn push_brick(&mut self, key: u64, values: &BrickValues) -> Result<(), StorageError> {
+        self.check_layers_only()?;
         self.check_brick(self.index.last_key, key, values)?;
         let payload = encode_brick(&mut self.compressor, values).map_err(self.io("compress a brick for"))?;
         let (surface, inner) = tally(values);
@@ -247,6 +261,7 @@ impl VoxmapWriter {
     /// Append many bricks at once, compressing them in parallel; the file is the same as
     /// from pushing them one by one.
     pub fn push_bricks(&mut self, bricks: &[Brick]) -> Result<(), StorageError> {
+        self.check_layers_only()?;
         let mut prev = self.index.last_key;
         for b in bricks {
             self.check_brick(prev, b.key, &b.values)?;
@@ -259,6 +274,64 @@ impl VoxmapWriter {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     let (surface, inner) = tally(&b.values);
                     Ok((encode_brick(c, &b.values)?, surface, inner))
+                })
+                .collect();
+            for (b, e) in batch.iter().zip(encoded) {
+                let (payload, surface, inner) = e.map_err(self.io("compress a brick for"))?;
+                self.push_payload(b.key, &payload, surface, inner)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A version 2 file takes its bricks with their distances only.
+    fn check_layers_only(&self) -> Result<(), StorageError> {
+        if self.distances {
+            return Err(self.invalid("this file's bricks carry distances: use push_bricks_with_distances".into()));
+        }
+        Ok(())
+    }
+
+    /// Append many bricks and their signed distances (one array per brick) to a version 2
+    /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
+    /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]).
+    pub fn push_bricks_with_distances(
+        &mut self,
+        bricks: &[Brick],
+        distances: &[BrickDistances],
+    ) -> Result<(), StorageError> {
+        if !self.distances {
+            return Err(self.invalid("distances given to a writer without with_distances".into()));
+        }
+        if bricks.len() != distances.len() {
+            return Err(self.invalid(format!(
+                "{} bricks but {} distance arrays",
+                bricks.len(),
+                distances.len()
+            )));
+        }
+        let limit = far_distance(self.layers, 1);
+        let mut prev = self.index.last_key;
+        for (b, d) in bricks.iter().zip(distances) {
+            self.check_brick(prev, b.key, &b.values)?;
+            if let Some(i) = d.iter().position(|&x| x.abs() > limit) {
+                return Err(self.invalid(format!(
+                    "brick key {} voxel {i} has distance {} voxels, beyond the reach {}",
+                    b.key,
+                    d[i] as f64 * DISTANCE_STEP,
+                    limit as f64 * DISTANCE_STEP
+                )));
+            }
+            prev = Some(b.key);
+        }
+        for (batch, dists) in bricks.chunks(BATCH).zip(distances.chunks(BATCH)) {
+            let encoded: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
+                .par_iter()
+                .zip(dists)
+                .map_init(new_compressor, |c, (b, d)| {
+                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                    let (surface, inner) = tally(&b.values);
+                    Ok((encode_brick_with_distances(c, &b.values, d)?, surface, inner))
                 })
                 .collect();
             for (b, e) in batch.iter().zip(encoded) {
@@ -347,7 +420,7 @@ impl VoxmapWriter {
 
         let mut h = RawHeader {
             magic: MAGIC,
-            version: VERSION,
+            version: if self.distances { VERSION } else { VERSION_LAYERS },
             header_bytes: HEADER_BYTES as u32,
             origin: self.grid.origin.to_array(),
             voxel_size: self.grid.voxel_size,
@@ -355,7 +428,7 @@ impl VoxmapWriter {
             brick_shift: BRICK_SHIFT as u8,
             brick_edge: BRICK as u8,
             layers: self.layers,
-            codec: CODEC_ZSTD_DELTA,
+            codec: codec_of(if self.distances { VERSION } else { VERSION_LAYERS }),
             surface_voxels: counts.surface_voxels,
             inner_voxels: counts.inner_voxels,
             bricks_stored: counts.bricks_stored,
@@ -404,10 +477,17 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel.
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 2 when it
+/// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;
-    w.push_bricks(voxmap.bricks())?;
+    match voxmap.distances() {
+        Some(distances) => {
+            w.with_distances()?;
+            w.push_bricks_with_distances(voxmap.bricks(), distances)?;
+        }
+        None => w.push_bricks(voxmap.bricks())?,
+    }
     for &r in voxmap.inside_runs() {
         w.push_inside_run(r)?;
     }
