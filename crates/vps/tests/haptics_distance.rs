@@ -94,3 +94,67 @@ fn a_version_2_file_queries_as_the_voxmap_in_memory() {
         );
     }
 }
+
+/// The interpolation (through the cursor's brick aprons) is the trilinear blend of the stored
+/// distances of the eight voxel centres around the point, read one by one from the voxmap:
+/// at random points, across brick faces, and beyond the grid's sides.
+#[test]
+fn interpolation_blends_the_eight_stored_distances_around_a_point() {
+    use vps::voxmap::{far_distance, BrickSlot, DISTANCE_STEP};
+    let p = distance_fixture();
+    let vps::haptics::VoxmapSource::Memory(vm) = p.voxmap.source() else {
+        panic!("the fixture is in memory");
+    };
+    let grid = *vm.grid();
+    let stored = |v: [i64; 3]| -> f64 {
+        if (0..3).any(|a| v[a] < 0 || v[a] >= grid.dims[a] as i64) {
+            return far_distance(vm.layers(), -1) as f64;
+        }
+        let v = v.map(|c| c as u32);
+        let key = grid.brick_key(v.map(|c| c >> 3));
+        let local = ((v[2] & 7) * 64 + (v[1] & 7) * 8 + (v[0] & 7)) as usize;
+        match vm.brick_distances(key).unwrap() {
+            BrickSlot::Stored(d) => d[local] as f64,
+            BrickSlot::Tile(t) => far_distance(vm.layers(), t) as f64,
+        }
+    };
+    let mut cur = p.voxmap.cursor();
+    let mut rng = vps::shapes::SplitMix(7);
+    let dims = grid.dims.map(|d| d as f64);
+    for _ in 0..20_000 {
+        // Half anywhere, half in and around a stored brick, where the distances vary.
+        let u = if rng.below(2) == 0 {
+            glam::DVec3::new(
+                rng.range(-2.0, dims[0] + 2.0),
+                rng.range(-2.0, dims[1] + 2.0),
+                rng.range(-2.0, dims[2] + 2.0),
+            )
+        } else {
+            let brick = &vm.bricks()[rng.below(vm.bricks().len() as u64) as usize];
+            let o = grid.brick_coords(brick.key).map(|c| (c * 8) as f64);
+            glam::DVec3::new(
+                o[0] + rng.range(-1.0, 9.0),
+                o[1] + rng.range(-1.0, 9.0),
+                o[2] + rng.range(-1.0, 9.0),
+            )
+        };
+        let c = u - 0.5;
+        let f = c.floor();
+        let t = c - f;
+        let b = [f.x as i64, f.y as i64, f.z as i64];
+        let d = |i: i64, j: i64, k: i64| stored([b[0] + i, b[1] + j, b[2] + k]);
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let y0 = lerp(
+            lerp(d(0, 0, 0), d(1, 0, 0), t.x),
+            lerp(d(0, 1, 0), d(1, 1, 0), t.x),
+            t.y,
+        );
+        let y1 = lerp(
+            lerp(d(0, 0, 1), d(1, 0, 1), t.x),
+            lerp(d(0, 1, 1), d(1, 1, 1), t.x),
+            t.y,
+        );
+        let want = lerp(y0, y1, t.z) * DISTANCE_STEP;
+        assert_eq!(cur.distance_at(u), want, "at {u}");
+    }
+}
