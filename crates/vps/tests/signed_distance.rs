@@ -109,3 +109,36 @@ fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
     assert!(a.worst_wrong_side <= 0.75f64.sqrt() + 1e-9, "{a:?}");
     assert!(a.worst <= 0.5 + 1e-3, "{a:?}");
 }
+
+/// Open meshes, whose winding fill ends over holes in interface voxels far from any triangle:
+/// no panic, interface voxels at 0, and every voxel away from the surface on the side its value
+/// says.
+#[test]
+fn open_meshes_get_signed_distances_without_surprises() {
+    let c = DVec3::new(0.13, -0.27, 0.31);
+    for (name, tris) in [
+        // A face missing: a hole 40 voxels wide at voxels of 0.25, far wider than the reach.
+        (
+            "open box",
+            shapes::open_box(DVec3::new(-5.1, -4.7, -1.3), DVec3::new(5.3, 4.9, 1.1)),
+        ),
+        ("cracked sphere", shapes::cracked_sphere(c, 3.0, 24, 48, 0.05)),
+    ] {
+        let mesh = Mesh::from_triangles("m", tris).unwrap();
+        let (vm, report) = voxelize(&mesh, &VoxelizeParams::new(0.25, 3)).unwrap();
+        let stored = signed_distances(&mesh, &vm);
+        assert!(
+            report.interface_voxels > 0 || name == "cracked sphere",
+            "{name}: {report:?}"
+        );
+        let reach = (distance_reach(3) / DISTANCE_STEP) as i16;
+        for (brick, d) in vm.bricks().iter().zip(&stored) {
+            for (&v, &x) in brick.values.iter().zip(d.iter()) {
+                assert!(x.abs() <= reach, "{name}: {x}");
+                if v != 0 {
+                    assert_eq!(x.signum(), v.signum() as i16, "{name}: distance {x} at value {v}");
+                }
+            }
+        }
+    }
+}

@@ -20,6 +20,10 @@
 //!   continuous across the sheet. Its outside neighbours, at `d > ½`, get `−d` as any outside
 //!   voxel, which the plate formula would also give up to the ½ (see `docs/VOXMAP.md`).
 //!
+//! A surface voxel that no triangle touches (farther than half its diagonal from all of them:
+//! an interface voxel of the winding fill, over a hole) holds 0: the boundary there is the
+//! winding number's level set, which crosses it.
+//!
 //! Values beyond the layers, and tiles, are at least the reach away (see
 //! [`crate::voxmap::distance_reach`]): they hold ± the reach.
 
@@ -35,6 +39,10 @@ use crate::voxmap::{distance_reach, far_distance, BrickDistances, Voxmap, DISTAN
 /// How far around a surface voxel its neighbourhood reaches: two steps, as for the pointshell's
 /// normals, because a face lying on voxel faces makes a surface two voxels thick.
 const REACH: usize = 2;
+
+/// Half a voxel's diagonal, a little raised for the `f32` distance: no triangle farther than
+/// this from a voxel's centre touches the voxel.
+const TOUCH: f64 = 0.8660254037844387 * (1.0 + 1e-6);
 
 /// Edge of a brick's window: the brick and [`REACH`] voxels around it.
 const W: usize = BRICK as usize + 2 * REACH;
@@ -64,6 +72,14 @@ pub fn signed_distances(mesh: &Mesh, voxmap: &Voxmap) -> Vec<BrickDistances> {
                     } else {
                         far_distance(layers, value)
                     };
+                    continue;
+                }
+                // No triangle touches a voxel whose centre is farther than half its diagonal
+                // from all of them: an interface voxel of the winding fill, where the inside
+                // ends over a hole (docs/VOXMAP.md). The boundary is the winding number's level
+                // set, which passes through it: distance 0, not the far triangles'.
+                if !(d <= TOUCH) {
+                    *o = 0;
                     continue;
                 }
                 let l = [local & 7, (local >> 3) & 7, local >> 6];
