@@ -78,7 +78,7 @@ pub fn signed_distances(mesh: &Mesh, voxmap: &Voxmap) -> Vec<BrickDistances> {
                 // from all of them: an interface voxel of the winding fill, where the inside
                 // ends over a hole (docs/VOXMAP.md). The boundary is the winding number's level
                 // set, which passes through it: distance 0, not the far triangles'.
-                if !(d <= TOUCH) {
+                if d > TOUCH || d.is_nan() {
                     *o = 0;
                     continue;
                 }
