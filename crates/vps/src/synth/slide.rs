@@ -117,34 +117,101 @@ pub fn slide_on_tilted_box(params: &SlideParams, contact_params: &ContactParams)
     .into_iter()
     .map(|t| t.map(|v| tilt * v));
     let box_mesh = Mesh::from_triangles("tilted_box", box_triangles)?;
-    let (voxmap, _) = voxelize(&box_mesh, &VoxelizeParams::new(p.box_voxel, p.layers))?;
-    let distances = signed_distances(&box_mesh, &voxmap);
-    let voxmap = CachedVoxmap::in_memory(voxmap.with_distances(distances));
-
-    // Facets within 1 % of a pointshell voxel of the sphere.
-    let rings = shapes::sphere_rings(p.sphere_radius / p.sphere_voxel, 0.01);
-    let sphere_mesh = Mesh::from_triangles("sphere", shapes::sphere(DVec3::ZERO, p.sphere_radius, rings, 2 * rings))?;
-    let (sphere_map, _) = voxelize(&sphere_mesh, &VoxelizeParams::new(p.sphere_voxel, p.layers))?;
-    let (shell, _) = pointshell(&sphere_mesh, &sphere_map, LEAF_SIZE)?;
-
+    let voxmap = static_voxmap(&box_mesh, p)?;
+    let shell = sphere_shell(p)?;
     let normal = tilt * DVec3::Z;
     let along = tilt * DVec3::X;
     let poses = (p.travel / p.step).round() as usize + 1;
-    let mut forces = Vec::with_capacity(poses);
-    let (mut points, mut worst_angle) = (0u64, 0.0f64);
-    for i in 0..poses {
+    let path = (0..poses).map(|i| {
         let s = -0.5 * p.travel + i as f64 * p.step;
-        let centre = along * s + normal * (p.sphere_radius - p.depth);
+        (along * s + normal * (p.sphere_radius - p.depth), normal)
+    });
+    let (forces, points, worst_angle) = run_path(&voxmap, &shell, path, contact_params)?;
+    Ok(figures(p.tilt_degrees, forces, points, worst_angle))
+}
+
+/// The voxmap, with distances, of the static object `mesh` at the voxel size and layers of `p`.
+fn static_voxmap(mesh: &Mesh, p: &SlideParams) -> Result<CachedVoxmap, SlideError> {
+    let (voxmap, _) = voxelize(mesh, &VoxelizeParams::new(p.box_voxel, p.layers))?;
+    let distances = signed_distances(mesh, &voxmap);
+    Ok(CachedVoxmap::in_memory(voxmap.with_distances(distances)))
+}
+
+/// The pointshell of the moving sphere of `p`, about its centre, with facets within 1 % of a
+/// pointshell voxel of the sphere.
+fn sphere_shell(p: &SlideParams) -> Result<crate::Pointshell, SlideError> {
+    let rings = shapes::sphere_rings(p.sphere_radius / p.sphere_voxel, 0.01);
+    let sphere_mesh = Mesh::from_triangles("sphere", shapes::sphere(DVec3::ZERO, p.sphere_radius, rings, 2 * rings))?;
+    let (sphere_map, _) = voxelize(&sphere_mesh, &VoxelizeParams::new(p.sphere_voxel, p.layers))?;
+    Ok(pointshell(&sphere_mesh, &sphere_map, LEAF_SIZE)?.0)
+}
+
+/// One exact query per (sphere centre, ideal force direction) of `path`: the force magnitudes,
+/// the points in contact summed, and the largest angle between a force and its ideal direction.
+fn run_path(
+    voxmap: &CachedVoxmap,
+    shell: &crate::Pointshell,
+    path: impl Iterator<Item = (DVec3, DVec3)>,
+    contact_params: &ContactParams,
+) -> Result<(Vec<f64>, u64, f64), SlideError> {
+    let (mut forces, mut points, mut worst_angle) = (Vec::new(), 0u64, 0.0f64);
+    for (centre, ideal) in path {
         let pose = Pose::new(centre.to_array(), [1.0, 0.0, 0.0, 0.0]).map_err(HapticsError::from)?;
-        let c = contact(&voxmap, &shell, &pose, contact_params)?;
+        let c = contact(voxmap, shell, &pose, contact_params)?;
         let f = c.force.length();
         if f > 0.0 {
-            let cos = (c.force.dot(normal) / f).clamp(-1.0, 1.0);
+            let cos = (c.force.dot(ideal) / f).clamp(-1.0, 1.0);
             worst_angle = worst_angle.max(cos.acos().to_degrees());
         }
         forces.push(f);
         points += c.points_in_contact;
     }
+    Ok((forces, points, worst_angle))
+}
+
+/// The sphere of `p` rolled at depth `p.depth` over a quarter of a great circle (from the top,
+/// +z, to the side, +x) of a static sphere of radius `2 · p.sphere_radius` at the origin:
+/// ideally the same force at every pose, along the line of centres. `travel` and `step` are
+/// not used: 101 poses, 0.9° apart.
+pub fn roll_on_sphere(params: &SlideParams, contact_params: &ContactParams) -> Result<SlideFigures, SlideError> {
+    let p = params;
+    let big = 2.0 * p.sphere_radius;
+    let rings = shapes::sphere_rings(big / p.box_voxel, 0.01);
+    let mesh = Mesh::from_triangles("static sphere", shapes::sphere(DVec3::ZERO, big, rings, 2 * rings))?;
+    let voxmap = static_voxmap(&mesh, p)?;
+    let shell = sphere_shell(p)?;
+    let path = (0..=100).map(|i| {
+        let a = (i as f64 * 0.9).to_radians();
+        let dir = DVec3::new(a.sin(), 0.0, a.cos());
+        (dir * (big + p.sphere_radius - p.depth), dir)
+    });
+    let (forces, points, worst_angle) = run_path(&voxmap, &shell, path, contact_params)?;
+    Ok(figures(0.0, forces, points, worst_angle))
+}
+
+/// The sphere of `p` held against the edge of a box turned `p.tilt_degrees` about z, at depth
+/// `p.depth` below the edge along the bisector of its two faces, and slid `p.travel` along the
+/// edge in steps of `p.step`: ideally the same force at every pose, along the bisector.
+pub fn slide_along_edge(params: &SlideParams, contact_params: &ContactParams) -> Result<SlideFigures, SlideError> {
+    let p = params;
+    let turn = DQuat::from_rotation_z(p.tilt_degrees.to_radians());
+    let box_triangles = shapes::cuboid(
+        DVec3::new(-BOX_HALF_SIDE, -BOX_HALF_SIDE, -BOX_THICKNESS),
+        DVec3::new(0.0, BOX_HALF_SIDE, 0.0),
+    )
+    .into_iter()
+    .map(|t| t.map(|v| turn * v));
+    let mesh = Mesh::from_triangles("box", box_triangles)?;
+    let voxmap = static_voxmap(&mesh, p)?;
+    let shell = sphere_shell(p)?;
+    // The edge is the y axis turned; the bisector of its faces (+x and +z) points out of both.
+    let (along, bisector) = (turn * DVec3::Y, turn * DVec3::new(1.0, 0.0, 1.0).normalize());
+    let poses = (p.travel / p.step).round() as usize + 1;
+    let path = (0..poses).map(|i| {
+        let s = -0.5 * p.travel + i as f64 * p.step;
+        (along * s + bisector * (p.sphere_radius - p.depth), bisector)
+    });
+    let (forces, points, worst_angle) = run_path(&voxmap, &shell, path, contact_params)?;
     Ok(figures(p.tilt_degrees, forces, points, worst_angle))
 }
 
@@ -210,6 +277,43 @@ mod tests {
                 Err(SlideError::Params(_))
             ));
         }
+    }
+
+    /// A sphere rolled on a sphere, and one slid along a box's edge (lattice-aligned and turned
+    /// 17° about z), with the interpolated distance. Measured (`docs/HAPTICS.md`): the roll
+    /// 8.5 % std/mean, 23.6 % spread, 0.41°; the aligned edge 0.00 %, 0.0 %, 0.03°; the turned
+    /// edge 0.98 %, 4.5 %, 1.28°. The direction is right on the sphere, the aligned edge is
+    /// ideal; the roll's magnitude follows the pointshell's point density, which changes as the
+    /// contact moves over the moving sphere (issue 12's aims, 1 %, 4 % and 1°, are not met
+    /// there nor, narrowly, on the turned edge). The bounds below keep what was measured from
+    /// getting worse.
+    #[test]
+    fn rolling_on_a_sphere_and_sliding_along_an_edge() {
+        let p = SlideParams::default();
+        let roll = roll_on_sphere(&p, &ContactParams::default()).unwrap();
+        assert!(roll.mean_force > 0.0 && roll.forces.len() == 101, "{roll:?}");
+        assert!(roll.max_direction_error_degrees < 1.0, "{roll:?}");
+        assert!(roll.std_over_mean < 0.1 && roll.spread_over_mean < 0.3, "{roll:?}");
+        let aligned = slide_along_edge(&p, &ContactParams::default()).unwrap();
+        assert!(aligned.mean_force > 0.0, "{aligned:?}");
+        assert!(
+            aligned.std_over_mean < 0.01 && aligned.spread_over_mean < 0.04,
+            "{aligned:?}"
+        );
+        assert!(aligned.max_direction_error_degrees < 1.0, "{aligned:?}");
+        let turned = slide_along_edge(
+            &SlideParams {
+                tilt_degrees: 17.0,
+                ..p
+            },
+            &ContactParams::default(),
+        )
+        .unwrap();
+        assert!(
+            turned.std_over_mean < 0.02 && turned.spread_over_mean < 0.06,
+            "{turned:?}"
+        );
+        assert!(turned.max_direction_error_degrees < 2.0, "{turned:?}");
     }
 
     /// Issue 12's quality aims on the slide, with the interpolated distance: the force is the
