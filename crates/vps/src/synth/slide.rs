@@ -119,15 +119,20 @@ pub fn slide_on_tilted_box(params: &SlideParams, contact_params: &ContactParams)
     let box_mesh = Mesh::from_triangles("tilted_box", box_triangles)?;
     let voxmap = static_voxmap(&box_mesh, p)?;
     let shell = sphere_shell(p)?;
-    let normal = tilt * DVec3::Z;
-    let along = tilt * DVec3::X;
-    let poses = (p.travel / p.step).round() as usize + 1;
-    let path = (0..poses).map(|i| {
-        let s = -0.5 * p.travel + i as f64 * p.step;
-        (along * s + normal * (p.sphere_radius - p.depth), normal)
-    });
+    let path = straight_path(p, tilt * DVec3::X, tilt * DVec3::Z);
     let (forces, points, worst_angle) = run_path(&voxmap, &shell, path, contact_params)?;
     Ok(figures(p.tilt_degrees, forces, points, worst_angle))
+}
+
+/// The sphere centres of a slide of `p.travel` in steps of `p.step` along `along`, centred on
+/// the origin, held `p.depth` deep against a surface whose outward normal is `normal`; each
+/// with `normal` as the ideal force direction.
+fn straight_path(p: &SlideParams, along: DVec3, normal: DVec3) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
+    let poses = (p.travel / p.step).round() as usize + 1;
+    (0..poses).map(move |i| {
+        let s = -0.5 * p.travel + i as f64 * p.step;
+        (along * s + normal * (p.sphere_radius - p.depth), normal)
+    })
 }
 
 /// The voxmap, with distances, of the static object `mesh` at the voxel size and layers of `p`.
@@ -205,12 +210,7 @@ pub fn slide_along_edge(params: &SlideParams, contact_params: &ContactParams) ->
     let voxmap = static_voxmap(&mesh, p)?;
     let shell = sphere_shell(p)?;
     // The edge is the y axis turned; the bisector of its faces (+x and +z) points out of both.
-    let (along, bisector) = (turn * DVec3::Y, turn * DVec3::new(1.0, 0.0, 1.0).normalize());
-    let poses = (p.travel / p.step).round() as usize + 1;
-    let path = (0..poses).map(|i| {
-        let s = -0.5 * p.travel + i as f64 * p.step;
-        (along * s + bisector * (p.sphere_radius - p.depth), bisector)
-    });
+    let path = straight_path(p, turn * DVec3::Y, turn * DVec3::new(1.0, 0.0, 1.0).normalize());
     let (forces, points, worst_angle) = run_path(&voxmap, &shell, path, contact_params)?;
     Ok(figures(p.tilt_degrees, forces, points, worst_angle))
 }
