@@ -219,8 +219,11 @@ fn unpredict(residuals: &[u8; BRICK_VOXELS]) -> BrickValues {
     values
 }
 
+/// The "previous voxel" prediction of entry `i` of a brick's values or distances from those
+/// before it: the voxel before along x, or for the first of a row the one below in y, or for
+/// the first of a slice the one below in z; 0 for the first.
 #[inline]
-fn prediction(values: &BrickValues, i: usize) -> i8 {
+fn prediction<T: Copy + Default>(values: &[T; BRICK_VOXELS], i: usize) -> T {
     if i & 7 != 0 {
         values[i - 1]
     } else if i & 63 != 0 {
@@ -228,35 +231,22 @@ fn prediction(values: &BrickValues, i: usize) -> i8 {
     } else if i != 0 {
         values[i - 64]
     } else {
-        0
+        T::default()
+    }
+}
+
+/// Compress `raw` into a payload of at most `max` bytes: a zstd frame without its magic.
+fn payload_of(compressor: &mut zstd::bulk::Compressor<'_>, raw: &[u8], max: usize) -> std::io::Result<Vec<u8>> {
+    let frame = compressor.compress(raw)?;
+    match frame.strip_prefix(&ZSTD_FRAME_MAGIC[..]) {
+        Some(rest) if rest.len() <= max => Ok(rest.to_vec()),
+        _ => Err(std::io::Error::other("zstd produced an unexpected frame")),
     }
 }
 
 /// Compress one brick into its payload.
 pub fn encode_brick(compressor: &mut zstd::bulk::Compressor<'_>, values: &BrickValues) -> std::io::Result<Vec<u8>> {
-    let frame = compressor.compress(&predict(values))?;
-    match frame.strip_prefix(&ZSTD_FRAME_MAGIC[..]) {
-        Some(rest) if rest.len() <= MAX_PAYLOAD_BYTES => Ok(rest.to_vec()),
-        _ => Err(std::io::Error::other("zstd produced an unexpected frame")),
-    }
-}
-
-/// The prediction of distance `i` from those before it: the voxel before along x, or for the
-/// first of a row the one below in y, or for the first of a slice the one below in z, as for
-/// the values. Measured on Nefertiti (voxels of 0.5225, 5 layers, 65,106 bricks, steps of
-/// 1/32): 15.79 MB with this, 15.90 with the plane through three neighbours in the same
-/// slice, 16.54 with the line through the two before along x.
-#[inline]
-fn distance_prediction(d: &BrickDistances, i: usize) -> i16 {
-    if i & 7 != 0 {
-        d[i - 1]
-    } else if i & 63 != 0 {
-        d[i - 8]
-    } else if i != 0 {
-        d[i - 64]
-    } else {
-        0
-    }
+    payload_of(compressor, &predict(values), MAX_PAYLOAD_BYTES)
 }
 
 /// `0, -1, 1, -2, 2, …` to `0, 1, 2, 3, 4, …`: small magnitudes to small numbers.
@@ -279,18 +269,18 @@ pub fn encode_brick_with_distances(
 ) -> std::io::Result<Vec<u8>> {
     let mut raw = [0u8; DISTANCE_FRAME_BYTES];
     raw[..BRICK_VOXELS].copy_from_slice(&predict(values));
+    // Distances are predicted as values are, the previous voxel's: measured on Nefertiti
+    // (voxels of 0.5225, 5 layers, 65,106 bricks, steps of 1/32), 15.79 MB with it, 15.90 with
+    // the plane through three neighbours in the same slice, 16.54 with the line through the
+    // two before along x.
     for i in 0..BRICK_VOXELS {
-        let r = zigzag(distances[i].wrapping_sub(distance_prediction(distances, i)));
+        let r = zigzag(distances[i].wrapping_sub(prediction(distances, i)));
         // Low bytes and high bytes apart: zigzagged, small residuals of either sign have a
         // high byte of 0.
         raw[BRICK_VOXELS + i] = r as u8;
         raw[2 * BRICK_VOXELS + i] = (r >> 8) as u8;
     }
-    let frame = compressor.compress(&raw)?;
-    match frame.strip_prefix(&ZSTD_FRAME_MAGIC[..]) {
-        Some(rest) if rest.len() <= MAX_PAYLOAD_BYTES_DISTANCE => Ok(rest.to_vec()),
-        _ => Err(std::io::Error::other("zstd produced an unexpected frame")),
-    }
+    payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_DISTANCE)
 }
 
 /// A zstd compressor set up as the writer uses it.
@@ -406,7 +396,7 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     let mut d = [0i16; BRICK_VOXELS];
     for i in 0..BRICK_VOXELS {
         let r = raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8;
-        d[i] = distance_prediction(&d, i).wrapping_add(unzigzag(r));
+        d[i] = prediction(&d, i).wrapping_add(unzigzag(r));
     }
     let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
     if let Some(voxel) = d.iter().position(|&x| (x as i32).abs() > limit) {
