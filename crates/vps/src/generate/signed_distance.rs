@@ -8,7 +8,8 @@
 //! - a surface voxel (value 0), whose centre may lie on either side, takes the side of its
 //!   centre as seen from the nearest point `q` of the mesh: `+` when `c − q` points the way
 //!   the values of its 5×5×5 neighbourhood grow (`Σ value · offset`, into the object), `−`
-//!   otherwise;
+//!   otherwise. The neighbourhood is the pointshell normals' (two steps, because a face lying
+//!   on voxel faces makes a surface two voxels thick), gathered by the same window;
 //! - a surface voxel with no outside voxel in its 5×5×5 neighbourhood is on a surface buried
 //!   in the solid (a part overlapping another): `+`. Were its centre outside the solid, two
 //!   steps out along the axis nearest the normal would be a voxel that touches no triangle
@@ -31,21 +32,19 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::distance::nearest_in_layers;
+use super::pointshell::normals::{Neighbours, Window};
 use crate::geometry::closest::closest_point;
-use crate::grid::{BRICK, BRICK_SHIFT, BRICK_VOXELS};
+use crate::grid::{BRICK_SHIFT, BRICK_VOXELS};
 use crate::mesh::Mesh;
 use crate::voxmap::{distance_reach, far_distance, BrickDistances, Voxmap, DISTANCE_STEP};
 
-/// How far around a surface voxel its neighbourhood reaches: two steps, as for the pointshell's
-/// normals, because a face lying on voxel faces makes a surface two voxels thick.
-const REACH: usize = 2;
+/// Stored bricks per task: enough for consecutive bricks to share their neighbours' look-ups,
+/// as in the pointshell's normals.
+const BRICKS_PER_RUN: usize = 64;
 
 /// Half a voxel's diagonal, a little raised for the `f32` distance: no triangle farther than
 /// this from a voxel's centre touches the voxel.
 const TOUCH: f64 = 0.8660254037844387 * (1.0 + 1e-6);
-
-/// Edge of a brick's window: the brick and [`REACH`] voxels around it.
-const W: usize = BRICK as usize + 2 * REACH;
 
 /// The signed distances of every stored brick of `voxmap` (made from `mesh`), in the order of
 /// [`Voxmap::bricks`]; attach them with [`Voxmap::with_distances`].
@@ -55,94 +54,64 @@ pub fn signed_distances(mesh: &Mesh, voxmap: &Voxmap) -> Vec<BrickDistances> {
     let grid = *voxmap.grid();
     let (nearest, triangles) = nearest_in_layers(mesh, voxmap);
     let quantize = |phi: f64| (phi.clamp(-reach, reach) / DISTANCE_STEP).round() as i16;
+    let triangles = &triangles[..];
+    // Runs of bricks in key order, each with its own window and cursor, whose look-ups need
+    // the keys to increase.
     voxmap
         .bricks()
-        .par_iter()
-        .zip(nearest)
-        .map(|(brick, near)| {
-            let b = grid.brick_coords(brick.key);
-            let window = values_around(voxmap, b);
-            let base = b.map(|c| (c << BRICK_SHIFT) as f64);
-            let mut out: BrickDistances = [0; BRICK_VOXELS];
-            for (local, (&value, o)) in brick.values.iter().zip(out.iter_mut()).enumerate() {
-                let d = near.distance[local] as f64;
-                if value != 0 {
-                    *o = if d.is_finite() {
-                        quantize(if value > 0 { d } else { -d })
-                    } else {
-                        far_distance(layers, value)
-                    };
-                    continue;
-                }
-                // No triangle touches a voxel whose centre is farther than half its diagonal
-                // from all of them: an interface voxel of the winding fill, where the inside
-                // ends over a hole (docs/VOXMAP.md). The boundary is the winding number's level
-                // set, which passes through it: distance 0, not the far triangles'.
-                if d > TOUCH || d.is_nan() {
-                    *o = 0;
-                    continue;
-                }
-                let l = [local & 7, (local >> 3) & 7, local >> 6];
-                let (mut inside, mut outside, mut g) = (false, false, DVec3::ZERO);
-                const SIDE: usize = 2 * REACH + 1;
-                for k in 0..SIDE * SIDE * SIDE {
-                    let o = [k % SIDE, (k / SIDE) % SIDE, k / (SIDE * SIDE)];
-                    let v = window[((l[2] + o[2]) * W + l[1] + o[1]) * W + l[0] + o[0]];
-                    inside |= v > 0;
-                    outside |= v < 0;
-                    let dir = DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) - REACH as f64;
-                    g += dir * v as f64;
-                }
-                let phi = if !inside {
-                    0.5 - d
-                } else if !outside {
-                    d
-                } else {
-                    let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;
-                    let q = closest_point(c, &triangles[near.triangle[local] as usize]).point;
-                    if (c - q).dot(g) > 0.0 {
+        .par_chunks(BRICKS_PER_RUN)
+        .zip(nearest.par_chunks(BRICKS_PER_RUN))
+        .flat_map_iter(|(bricks, nears)| {
+            let (mut neighbours, mut window) = (Neighbours::new(voxmap), Window::new(voxmap));
+            bricks.iter().zip(nears).map(move |(brick, near)| {
+                let b = grid.brick_coords(brick.key);
+                window.gather(&mut neighbours, b);
+                let base = b.map(|c| (c << BRICK_SHIFT) as f64);
+                let mut out: BrickDistances = [0; BRICK_VOXELS];
+                for (local, (&value, o)) in brick.values.iter().zip(out.iter_mut()).enumerate() {
+                    let d = near.distance[local] as f64;
+                    if value != 0 {
+                        *o = if d.is_finite() {
+                            quantize(if value > 0 { d } else { -d })
+                        } else {
+                            far_distance(layers, value)
+                        };
+                        continue;
+                    }
+                    // No triangle touches a voxel whose centre is farther than half its diagonal
+                    // from all of them: an interface voxel of the winding fill, where the inside
+                    // ends over a hole (docs/VOXMAP.md). The boundary is the winding number's level
+                    // set, which passes through it: distance 0, not the far triangles'.
+                    if d > TOUCH || d.is_nan() {
+                        *o = 0;
+                        continue;
+                    }
+                    let l = [local & 7, (local >> 3) & 7, local >> 6];
+                    let (mut inside, mut outside, mut g) = (false, false, DVec3::ZERO);
+                    for k in 0..125i32 {
+                        let o = [k % 5, (k / 5) % 5, k / 25].map(|c| c - 2);
+                        let v = window.get(l.map(|c| c as u32), o);
+                        inside |= v > 0;
+                        outside |= v < 0;
+                        g += DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * v as f64;
+                    }
+                    let phi = if !inside {
+                        0.5 - d
+                    } else if !outside {
                         d
                     } else {
-                        -d
-                    }
-                };
-                *o = quantize(phi);
-            }
-            out
+                        let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;
+                        let q = closest_point(c, &triangles[near.triangle[local] as usize]).point;
+                        if (c - q).dot(g) > 0.0 {
+                            d
+                        } else {
+                            -d
+                        }
+                    };
+                    *o = quantize(phi);
+                }
+                out
+            })
         })
         .collect()
-}
-
-/// The values of brick `b` and of the voxels [`REACH`] steps around it, x fastest; beyond the
-/// grid, far outside.
-fn values_around(voxmap: &Voxmap, b: [u32; 3]) -> [i8; W * W * W] {
-    let grid = voxmap.grid();
-    let nb = grid.brick_dims();
-    let far = crate::voxmap::outside_value(voxmap.layers());
-    let mut out = [far; W * W * W];
-    let lo = b.map(|c| (c << BRICK_SHIFT) as i64 - REACH as i64);
-    let slot_of = |nbr: [i64; 3]| {
-        if (0..3).any(|a| nbr[a] < 0 || nbr[a] >= nb[a] as i64) {
-            None
-        } else {
-            Some(voxmap.brick(grid.brick_key(nbr.map(|c| c as u32))))
-        }
-    };
-    let mut cache: [Option<Option<crate::voxmap::BrickRef>>; 27] = [None; 27];
-    for z in 0..W {
-        for y in 0..W {
-            for x in 0..W {
-                let v = [lo[0] + x as i64, lo[1] + y as i64, lo[2] + z as i64];
-                let nbr = v.map(|c| c.div_euclid(BRICK as i64));
-                let k = ((nbr[2] - b[2] as i64 + 1) * 9 + (nbr[1] - b[1] as i64 + 1) * 3 + nbr[0] - b[0] as i64 + 1)
-                    as usize;
-                let slot = *cache[k].get_or_insert_with(|| slot_of(nbr));
-                if let Some(slot) = slot {
-                    let m = v.map(|c| c.rem_euclid(BRICK as i64) as usize);
-                    out[(z * W + y) * W + x] = slot.value(m[0] | m[1] << BRICK_SHIFT | m[2] << (2 * BRICK_SHIFT));
-                }
-            }
-        }
-    }
-    out
 }

@@ -21,7 +21,7 @@
 //! One file a step: `project.rs` (1), `normals.rs` and `sums.rs` (2), `orient.rs` (the
 //! two-sided points of 2); the tree is built here from [`crate::pointshell::tree`].
 
-mod normals;
+pub(super) mod normals;
 mod orient;
 mod project;
 mod sums;

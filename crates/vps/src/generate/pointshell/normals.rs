@@ -1,5 +1,6 @@
 //! Step 2: the inward normal of each point from the voxmap values of its 5×5×5 neighbourhood,
-//! gathered a brick at a time, or the triangle's normal where that sum is unstable.
+//! gathered a brick at a time, or the triangle's normal where that sum is unstable. The
+//! signed distances read the same neighbourhoods ([`crate::generate::signed_distance`]).
 
 use glam::DVec3;
 
@@ -12,13 +13,13 @@ use crate::voxmap::{inside_value, outside_value, BrickRef, Voxmap};
 /// directions keeps a cursor into the stored bricks and into the inside runs, which only moves
 /// forward, so consecutive bricks, whose neighbours are near each other, find them in a few
 /// steps instead of a binary search each.
-pub(super) struct Neighbours<'a> {
+pub(in crate::generate) struct Neighbours<'a> {
     voxmap: &'a Voxmap,
     cursors: [(usize, usize); 27],
 }
 
 impl<'a> Neighbours<'a> {
-    pub(super) fn new(voxmap: &'a Voxmap) -> Self {
+    pub(in crate::generate) fn new(voxmap: &'a Voxmap) -> Self {
         Neighbours {
             voxmap,
             cursors: [(0, 0); 27],
@@ -59,7 +60,7 @@ fn gallop<T>(xs: &[T], from: usize, before: impl Fn(&T) -> bool) -> usize {
 
 /// The values of a brick and the two voxels around it: the 5×5×5 neighbourhood of each of its
 /// voxels, gathered once.
-pub(super) struct Window {
+pub(in crate::generate) struct Window {
     /// The values, x fastest; 8 more at the end, so that every row can be read 8 wide.
     values: Box<[i8; W * W * W + 8]>,
     grid: Grid,
@@ -111,7 +112,7 @@ const SQRT: [f64; 13] = {
 const STABILITY_MARGIN: f64 = 1e-4;
 
 impl Window {
-    pub(super) fn new(voxmap: &Voxmap) -> Window {
+    pub(in crate::generate) fn new(voxmap: &Voxmap) -> Window {
         let far = outside_value(voxmap.layers());
         Window {
             values: Box::new([far; W * W * W + 8]),
@@ -121,7 +122,7 @@ impl Window {
     }
 
     /// Gathers the neighbourhood of `brick`; bricks asked for must come in increasing key order.
-    pub(super) fn gather(&mut self, neighbours: &mut Neighbours, brick: [u32; 3]) {
+    pub(in crate::generate) fn gather(&mut self, neighbours: &mut Neighbours, brick: [u32; 3]) {
         let grid = self.grid;
         let nb = grid.brick_dims();
         let mut refs = [BrickRef::Tile(self.far); 27];
@@ -158,7 +159,7 @@ impl Window {
 
     /// The value at local voxel `l` of the brick plus offset `o` (each within -2..=2).
     #[inline]
-    pub(super) fn get(&self, l: [u32; 3], o: [i32; 3]) -> i8 {
+    pub(in crate::generate) fn get(&self, l: [u32; 3], o: [i32; 3]) -> i8 {
         let c = [0, 1, 2].map(|a| (l[a] as i32 + 2 + o[a]) as usize);
         self.values[(c[2] * W + c[1]) * W + c[0]]
     }
