@@ -239,16 +239,7 @@ impl CachedVoxmap {
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
             Source::File(f) => f.stored_brick(key)?.map(Arc::from),
-            Source::Memory(v) => v.brick(key).map(|values| {
-                let distances = match v.brick_distances(key) {
-                    Some(BrickSlot::Stored(d)) => Some(*d),
-                    _ => None,
-                };
-                Arc::new(StoredBrick {
-                    values: *values,
-                    distances,
-                })
-            }),
+            Source::Memory(v) => v.stored_brick(key).map(Arc::new),
         };
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {

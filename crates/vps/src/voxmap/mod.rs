@@ -207,11 +207,29 @@ impl Voxmap {
         let distances = self.distances.as_ref()?;
         Some(match self.bricks.binary_search_by_key(&key, |b| b.key) {
             Ok(i) => BrickSlot::Stored(&distances[i]),
-            Err(_) => BrickSlot::Tile(match self.brick(key) {
-                BrickSlot::Tile(t) => t,
-                BrickSlot::Stored(_) => unreachable!("not a stored brick"),
-            }),
+            Err(_) => BrickSlot::Tile(self.tile_value(key)),
         })
+    }
+
+    /// What brick `key` holds, with its distances if the voxmap carries them: as
+    /// [`crate::storage::VoxmapFile::stored_brick`], from one search.
+    pub fn stored_brick(&self, key: u64) -> BrickSlot<StoredBrick> {
+        match self.bricks.binary_search_by_key(&key, |b| b.key) {
+            Ok(i) => BrickSlot::Stored(StoredBrick {
+                values: *self.bricks[i].values,
+                distances: self.distances.as_ref().map(|d| d[i]),
+            }),
+            Err(_) => BrickSlot::Tile(self.tile_value(key)),
+        }
+    }
+
+    /// The value of brick `key`, which is not stored: inside or far outside.
+    fn tile_value(&self, key: u64) -> i8 {
+        if in_runs(&self.inside, key) {
+            inside_value(self.layers)
+        } else {
+            outside_value(self.layers)
+        }
     }
 
     /// The voxmap of a signed distance field (world units, negative inside; its layers are then
@@ -278,11 +296,7 @@ impl Voxmap {
         if let Ok(i) = self.bricks.binary_search_by_key(&key, |b| b.key) {
             return BrickRef::Stored(&self.bricks[i].values);
         }
-        if in_runs(&self.inside, key) {
-            BrickRef::Tile(inside_value(self.layers))
-        } else {
-            BrickRef::Tile(outside_value(self.layers))
-        }
+        BrickRef::Tile(self.tile_value(key))
     }
 
     /// The value of voxel `v`; beyond the grid, the far outside value.
