@@ -284,6 +284,9 @@ fn bench_sweep_json_and_plot() {
     let hits = j["queries_in_contact"].as_u64().unwrap();
     assert!((20..=100).contains(&hits), "{hits} of 120 in contact");
     assert!(j["points_tested_per_query"]["max"].as_u64().unwrap() > 0);
+    // The sweep moves through contact, so the force changes between some queries.
+    let jump = j["max_force_jump"].as_f64().unwrap();
+    assert!(jump.is_finite() && jump > 0.0, "{jump}");
     assert_eq!(j["brute_force"]["mismatches"], 0);
     assert_eq!(j["brute_force"]["figures"]["queries"], 120);
 
@@ -291,7 +294,13 @@ fn bench_sweep_json_and_plot() {
     let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
-    assert!(info.width >= 640 && info.height >= 400);
+    // Three panels of at least 220 pixels: force, its jitter, points in contact.
+    assert!(
+        info.width >= 640 && info.height >= 3 * 220,
+        "{}x{}",
+        info.width,
+        info.height
+    );
 
     // The table form, with the defaults (sweep without --sweep).
     let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--steps", "50"]);
@@ -391,7 +400,7 @@ fn bench_builtin_needs_no_input() {
 }
 
 /// `--tilted-box` reports, per tilt, what the library's slide measures (the CLI is a thin
-/// layer: same scene, same numbers), plots one panel per tilt, and refuses a bad tilt.
+/// layer: same scene, same numbers), plots force and jitter per tilt, and refuses a bad tilt.
 #[test]
 fn bench_slides_on_a_tilted_box() {
     use vps::synth::slide::{slide_on_tilted_box, SlideParams};
@@ -423,7 +432,10 @@ fn bench_slides_on_a_tilted_box() {
         assert_eq!(s["mean_force"].as_f64(), Some(expected.mean_force));
         assert_eq!(s["std_over_mean"].as_f64(), Some(expected.std_over_mean));
     }
-    assert!(std::fs::read(&plot).unwrap().starts_with(b"\x89PNG"));
+    let reader = png::Decoder::new(std::io::Cursor::new(std::fs::read(&plot).unwrap()));
+    let height = reader.read_info().unwrap().info().height;
+    // Two panels per tilt of at least 220 pixels each: |F| and its jitter.
+    assert!(height >= 4 * 220, "{height}");
 
     let o = vps(&["haptics-bench", "--tilted-box", "--tilts", "0,nan"]);
     assert_clean_failure(&o, "--tilts");

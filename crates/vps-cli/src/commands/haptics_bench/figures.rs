@@ -62,7 +62,19 @@ pub struct Figures {
     pub queries_in_contact: usize,
     pub incomplete_queries: usize,
     pub max_force_error_bound: f64,
+    /// Largest ‖F(i) − F(i − 1)‖ between consecutive queries: the force's jitter along the
+    /// poses, what a hand feels as bumps when the poses are close.
+    pub max_force_jump: f64,
     pub total_seconds: f64,
+}
+
+/// ‖F(i) − F(i − 1)‖ for each query after the first; NaN for the first, which has no
+/// predecessor (a plot leaves it out).
+pub fn force_jumps(samples: &[Sample]) -> Vec<f64> {
+    std::iter::once(f64::NAN)
+        .chain(samples.windows(2).map(|w| (w[1].force - w[0].force).length()))
+        .take(samples.len())
+        .collect()
 }
 
 /// Nearest-rank percentile of sorted values.
@@ -99,6 +111,10 @@ pub fn figures(samples: &[Sample]) -> Figures {
         queries_in_contact: samples.iter().filter(|s| s.in_contact()).count(),
         incomplete_queries: samples.iter().filter(|s| !s.complete).count(),
         max_force_error_bound: samples.iter().map(|s| s.force_error_bound).fold(0.0, f64::max),
+        max_force_jump: force_jumps(samples)
+            .into_iter()
+            .filter(|j| !j.is_nan())
+            .fold(0.0, f64::max),
         total_seconds: total_us / 1e6,
     }
 }
@@ -152,5 +168,25 @@ mod tests {
         assert_eq!(percentile(&v, 100.0), 100.0);
         assert_eq!(percentile(&[7.0], 99.0), 7.0);
         assert_eq!(percentile(&[], 50.0), 0.0);
+    }
+
+    #[test]
+    fn force_jumps_are_the_changes_between_consecutive_queries() {
+        let sample = |x: f64, y: f64| Sample {
+            micros: 1.0,
+            force: DVec3::new(x, y, 0.0),
+            torque: DVec3::ZERO,
+            points_in_contact: 1,
+            points_tested: 1,
+            complete: true,
+            force_error_bound: 0.0,
+        };
+        let samples = [sample(0.0, 0.0), sample(3.0, 4.0), sample(3.0, 4.0), sample(3.0, 2.0)];
+        let jumps = force_jumps(&samples);
+        assert!(jumps[0].is_nan());
+        assert_eq!(&jumps[1..], &[5.0, 0.0, 2.0]);
+        assert_eq!(figures(&samples).max_force_jump, 5.0);
+        assert!(force_jumps(&[]).is_empty());
+        assert_eq!(figures(&samples[..1]).max_force_jump, 0.0);
     }
 }

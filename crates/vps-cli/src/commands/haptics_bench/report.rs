@@ -10,7 +10,7 @@ use vps::storage::Header as VoxmapHeader;
 use vps::{CachedVoxmap, ContactParams, PointshellFile};
 
 use super::builtin::Built;
-use super::figures::{Figures, Sample};
+use super::figures::{force_jumps, Figures, Sample};
 use super::HapticsBenchArgs;
 use crate::memory::{mib, peak_rss_bytes};
 use crate::render::{plot_series_png, Series, SERIES_COLOURS};
@@ -37,9 +37,10 @@ pub struct Run<'a> {
     pub brute: Option<(Figures, usize)>,
 }
 
-/// Plot force magnitude and points in contact over the queries into `plot`.
+/// Plot force magnitude, its jitter and points in contact over the queries into `plot`.
 pub fn write_plot(plot: &Path, samples: &[Sample], points: usize, budget: bool) -> Result<()> {
     let force: Vec<f64> = samples.iter().map(|s| s.force.length()).collect();
+    let jumps = force_jumps(samples);
     let in_contact: Vec<f64> = samples.iter().map(|s| s.points_in_contact as f64).collect();
     let title = format!("vps haptics-bench: {} queries, {points} points", samples.len());
     crate::interrupt::clean_beside(plot)?;
@@ -50,6 +51,11 @@ pub fn write_plot(plot: &Path, samples: &[Sample], points: usize, budget: bool) 
             Series {
                 label: "force magnitude |F|",
                 values: &force,
+                colour: SERIES_COLOURS[0],
+            },
+            Series {
+                label: "jitter: |F(i) - F(i-1)|, force change from the previous query",
+                values: &jumps,
                 colour: SERIES_COLOURS[0],
             },
             Series {
@@ -125,6 +131,7 @@ fn print_json(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
         "queries_in_contact": fig.queries_in_contact,
         "incomplete_queries": fig.incomplete_queries,
         "max_force_error_bound": fig.max_force_error_bound,
+        "max_force_jump": fig.max_force_jump,
         "seconds": fig.total_seconds,
         "cache": r.cache,
         "brute_force": r.brute.as_ref().map(|(b, mismatches)| json!({
@@ -269,5 +276,6 @@ fn print_figures(what: &str, f: &Figures) -> Result<()> {
         f.points_tested_max,
         f.points_per_ms
     );
+    outln!("  force jitter: largest |F(i) - F(i-1)| {:.4e}", f.max_force_jump);
     Ok(())
 }

@@ -75,20 +75,46 @@ pub fn run(a: &HapticsBenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// One panel per tilt: ‖F‖ over the poses of its slide.
+/// Two panels per tilt: ‖F‖ over the poses of its slide, and its jitter, the change of ‖F‖
+/// from the previous pose.
 fn write_plot(plot: &Path, slides: &[SlideFigures]) -> Result<()> {
-    let labels: Vec<String> = slides
+    let jumps: Vec<Vec<f64>> = slides
         .iter()
-        .map(|s| format!("|F| on the box tilted by {}°", s.tilt_degrees))
+        .map(|s| {
+            std::iter::once(f64::NAN)
+                .chain(s.forces.windows(2).map(|w| (w[1] - w[0]).abs()))
+                .take(s.forces.len())
+                .collect()
+        })
+        .collect();
+    let labels: Vec<[String; 2]> = slides
+        .iter()
+        .map(|s| {
+            [
+                format!("|F| on the box tilted by {}°", s.tilt_degrees),
+                format!("jitter at {}°: change of |F| from the previous pose", s.tilt_degrees),
+            ]
+        })
         .collect();
     let series: Vec<Series> = slides
         .iter()
+        .zip(&jumps)
         .zip(&labels)
         .enumerate()
-        .map(|(i, (s, label))| Series {
-            label,
-            values: &s.forces,
-            colour: SERIES_COLOURS[i % SERIES_COLOURS.len()],
+        .flat_map(|(i, ((s, jump), [force_label, jump_label]))| {
+            let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
+            [
+                Series {
+                    label: force_label,
+                    values: &s.forces,
+                    colour,
+                },
+                Series {
+                    label: jump_label,
+                    values: jump,
+                    colour,
+                },
+            ]
         })
         .collect();
     crate::interrupt::clean_beside(plot)?;
