@@ -36,13 +36,17 @@
 extern "C" {
 #endif
 
-/* Return codes of vps_contact. */
+/* Return codes of vps_contact and vps_contact_with_params. */
 #define VPS_OK 0           /* success */
 #define VPS_ERR_NULL 1     /* a required pointer argument is NULL */
 #define VPS_ERR_POSE 2     /* the pose has a NaN/infinite component or a zero quaternion */
-#define VPS_ERR_PARAM 3    /* stiffness negative or not finite, or budget_us NaN */
+#define VPS_ERR_PARAM 3    /* stiffness negative or not finite, budget_us NaN, or a bad vps_contact_params field */
 #define VPS_ERR_STORAGE 4  /* a file could not be read (e.g. a corrupt brick, found when a query reads it) */
 #define VPS_ERR_INTERNAL 5 /* an internal error (a caught panic); please report it */
+
+/* Penetration formulas of vps_contact_params.penetration (docs/HAPTICS.md). */
+#define VPS_PENETRATION_DISTANCE 0 /* interpolated signed distance (the layers if the file has none) */
+#define VPS_PENETRATION_LAYERS 1   /* the paper's layer formula, even if the file has distances */
 
 /* An open `.vxm` voxmap with a cache of decompressed bricks. Opaque. */
 typedef struct vps_voxmap vps_voxmap;
@@ -103,6 +107,23 @@ void vps_pointshell_close(vps_pointshell *pointshell);
  */
 int vps_contact(const vps_voxmap *voxmap, const vps_pointshell *pointshell, const double pose[7], double stiffness,
                 double budget_us, vps_contact_result *out, char *err, size_t err_len);
+
+/* The parameters of vps_contact_with_params. A zeroed struct with a stiffness set asks what
+ * vps_contact asks. */
+typedef struct vps_contact_params {
+    double stiffness;    /* as vps_contact's */
+    double budget_us;    /* as vps_contact's */
+    int32_t penetration; /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
+    int32_t reserved;    /* must be 0 */
+} vps_contact_params;
+
+/*
+ * vps_contact with its parameters in a struct, which also picks the penetration formula.
+ * params: a readable vps_contact_params (NULL is VPS_ERR_NULL); an unknown penetration or a
+ * non-zero reserved field is VPS_ERR_PARAM.
+ */
+int vps_contact_with_params(const vps_voxmap *voxmap, const vps_pointshell *pointshell, const double pose[7],
+                            const vps_contact_params *params, vps_contact_result *out, char *err, size_t err_len);
 
 /* The library's version, e.g. "0.1.0": a static string, never to be freed. */
 const char *vps_version(void);

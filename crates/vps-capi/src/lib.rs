@@ -1,7 +1,8 @@
 //! The C ABI (header: `include/vps.h`, guide: `docs/C_ABI.md`).
 //!
 //! Two opaque handles — `vps_voxmap` over a [`CachedVoxmap`] and `vps_pointshell` over a
-//! [`PointshellFile`] — and one query, `vps_contact`. Both handles are read-only after they are
+//! [`PointshellFile`] — and one query, `vps_contact` (or `vps_contact_with_params`, which also
+//! picks the penetration formula). Both handles are read-only after they are
 //! opened and are `Sync`, so any number of threads may query the same handles at once.
 //!
 //! Rules kept by every exported function:
@@ -17,7 +18,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::time::Duration;
 
-use vps::haptics::HapticsError;
+use vps::haptics::{HapticsError, Penetration};
 use vps::{contact, CachedVoxmap, ContactParams, PointshellFile, Pose};
 
 /// Success.
@@ -32,6 +33,26 @@ pub const VPS_ERR_PARAM: c_int = 3;
 pub const VPS_ERR_STORAGE: c_int = 4;
 /// An internal error (a panic, caught at the boundary). Please report it.
 pub const VPS_ERR_INTERNAL: c_int = 5;
+
+/// The penetration is the interpolated signed distance (the default; the layers when the
+/// voxmap file has no distances).
+pub const VPS_PENETRATION_DISTANCE: i32 = 0;
+/// The penetration is the paper's layer formula, even when the file has distances.
+pub const VPS_PENETRATION_LAYERS: i32 = 1;
+
+/// `vps_contact_params` in C: what `vps_contact_with_params` asks for.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VpsContactParams {
+    /// Force per unit of penetration per point; finite and ≥ 0.
+    pub stiffness: c_double,
+    /// ≤ 0: the exact answer; > 0: the time-critical one, in microseconds.
+    pub budget_us: c_double,
+    /// [`VPS_PENETRATION_DISTANCE`] or [`VPS_PENETRATION_LAYERS`].
+    pub penetration: i32,
+    /// Must be 0: room for a later field without a new function.
+    pub reserved: i32,
+}
 
 /// `vps_voxmap` in C: an open `.vxm` file with its brick cache.
 pub struct VpsVoxmap {
@@ -266,6 +287,7 @@ fn budget_of(budget_us: f64) -> Result<Option<Duration>, String> {
 ///
 /// `pose` is 7 doubles `tx ty tz qw qx qy qz` (the quaternion is normalised); `stiffness` is
 /// finite and ≥ 0; `budget_us` ≤ 0 asks for the exact answer, > 0 for the time-critical one.
+/// The penetration is the default one: [`vps_contact_with_params`] chooses.
 ///
 /// # Safety
 /// `voxmap` and `pointshell` must be NULL or open handles; `pose` NULL or 7 readable doubles;
@@ -282,32 +304,53 @@ pub unsafe extern "C" fn vps_contact(
     err: *mut c_char,
     err_len: usize,
 ) -> c_int {
+    let params = VpsContactParams {
+        stiffness,
+        budget_us,
+        ..Default::default()
+    };
+    // SAFETY: the same promises as this function's, passed on; `params` is a live local.
+    unsafe { vps_contact_with_params(voxmap, pointshell, pose, &params, out, err, err_len) }
+}
+
+/// [`vps_contact`] with its parameters in a struct, which also chooses the penetration
+/// formula ([`VPS_PENETRATION_DISTANCE`] or [`VPS_PENETRATION_LAYERS`]).
+///
+/// # Safety
+/// As [`vps_contact`], and `params` must be NULL or a readable `vps_contact_params`.
+#[no_mangle]
+pub unsafe extern "C" fn vps_contact_with_params(
+    voxmap: *const VpsVoxmap,
+    pointshell: *const VpsPointshell,
+    pose: *const c_double,
+    params: *const VpsContactParams,
+    out: *mut VpsContactResult,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
     let err = ErrBuf { ptr: err, len: err_len };
     let result = catch_unwind(AssertUnwindSafe(|| -> Result<(), (c_int, String)> {
         for (name, null) in [
             ("voxmap", voxmap.is_null()),
             ("pointshell", pointshell.is_null()),
             ("pose", pose.is_null()),
+            ("params", params.is_null()),
             ("out", out.is_null()),
         ] {
             if null {
                 return Err((VPS_ERR_NULL, format!("{name} is NULL")));
             }
         }
-        // SAFETY: not NULL, and the header requires `pose` to point to 7 readable doubles;
-        // an unaligned read asks nothing more.
-        let p: [f64; 7] = unsafe { pose.cast::<[f64; 7]>().read_unaligned() };
+        // SAFETY: not NULL, and the header requires `pose` to point to 7 readable doubles and
+        // `params` to a readable `vps_contact_params`; unaligned reads ask nothing more.
+        let (p, params): ([f64; 7], VpsContactParams) =
+            unsafe { (pose.cast::<[f64; 7]>().read_unaligned(), params.read_unaligned()) };
         // SAFETY: not NULL, and the header requires open handles, which stay valid (and are
         // only read, through `Sync` types) until the caller closes them after this call.
         let (voxmap, shell) = unsafe { (&(*voxmap).inner, &(*pointshell).inner) };
         let pose =
             Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))?;
-        let budget = budget_of(budget_us).map_err(|m| (VPS_ERR_PARAM, m))?;
-        let params = ContactParams {
-            stiffness,
-            budget,
-            ..Default::default()
-        };
+        let params = contact_params(&params).map_err(|m| (VPS_ERR_PARAM, m))?;
         let c = contact(voxmap, shell, &pose, &params).map_err(|e| {
             let code = match e {
                 HapticsError::Storage(_) => VPS_ERR_STORAGE,
@@ -329,6 +372,28 @@ pub unsafe extern "C" fn vps_contact(
     // Success leaves an empty message, so a caller never reads a stale one.
     err.write(&msg);
     code
+}
+
+/// The library's parameters for C's, or what is wrong with them (the stiffness is checked by
+/// the query itself).
+fn contact_params(p: &VpsContactParams) -> Result<ContactParams, String> {
+    let penetration = match p.penetration {
+        VPS_PENETRATION_DISTANCE => Penetration::Distance,
+        VPS_PENETRATION_LAYERS => Penetration::Layers,
+        other => {
+            return Err(format!(
+                "penetration {other} is neither VPS_PENETRATION_DISTANCE (0) nor VPS_PENETRATION_LAYERS (1)"
+            ))
+        }
+    };
+    if p.reserved != 0 {
+        return Err(format!("reserved is {}, must be 0", p.reserved));
+    }
+    Ok(ContactParams {
+        stiffness: p.stiffness,
+        budget: budget_of(p.budget_us)?,
+        penetration,
+    })
 }
 
 /// The library's version, e.g. `"0.1.0"`: a static NUL-terminated string, never freed.
@@ -358,6 +423,35 @@ mod tests {
         assert_eq!(offset_of!(VpsContactResult, complete), 128);
         assert_eq!(offset_of!(VpsContactResult, reserved), 132);
         assert_eq!(size_of::<VpsContactResult>(), 136);
+        // And those of `vps_contact_params`.
+        assert_eq!(offset_of!(VpsContactParams, budget_us), 8);
+        assert_eq!(offset_of!(VpsContactParams, penetration), 16);
+        assert_eq!(offset_of!(VpsContactParams, reserved), 20);
+        assert_eq!(size_of::<VpsContactParams>(), 24);
+    }
+
+    #[test]
+    fn params_choose_the_penetration_and_refuse_bad_values() {
+        let p = |penetration, reserved| VpsContactParams {
+            stiffness: 2.0,
+            budget_us: 0.0,
+            penetration,
+            reserved,
+        };
+        let distance = contact_params(&p(VPS_PENETRATION_DISTANCE, 0)).unwrap();
+        assert_eq!(distance.penetration, Penetration::Distance);
+        assert_eq!(distance.stiffness, 2.0);
+        assert_eq!(
+            contact_params(&p(VPS_PENETRATION_LAYERS, 0)).unwrap().penetration,
+            Penetration::Layers
+        );
+        assert!(contact_params(&p(2, 0)).unwrap_err().contains("penetration 2"));
+        assert!(contact_params(&p(0, 7)).unwrap_err().contains("reserved"));
+        // The zeroed struct is the default query.
+        assert_eq!(
+            contact_params(&VpsContactParams::default()).unwrap().penetration,
+            Penetration::default()
+        );
     }
 
     fn message(buf: &[c_char]) -> String {

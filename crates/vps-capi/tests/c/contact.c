@@ -1,7 +1,10 @@
 /*
  * contact: query a voxmap and a pointshell through the C ABI of libvps, one pose per line.
  *
- *   contact [-t THREADS] [-b BUDGET_US] VXM VPS STIFFNESS [POSES]
+ *   contact [-t THREADS] [-b BUDGET_US] [-l] VXM VPS STIFFNESS [POSES]
+ *
+ * -l asks for the layer penetration (vps_contact_with_params); without it, vps_contact's
+ * default.
  *
  * Poses are read from the file POSES, or from stdin when it is absent or "-": one pose per
  * line, 7 numbers "tx ty tz qw qx qy qz" separated by spaces, tabs or commas. Blank lines and
@@ -42,6 +45,7 @@ static vps_voxmap *voxmap;
 static vps_pointshell *shell;
 static const char *vxm_path, *vps_path;
 static double stiffness, budget_us;
+static int layers;
 
 static void open_files(void) {
     char err[ERR_LEN];
@@ -83,7 +87,15 @@ static int parse_pose(const char *line, double pose[7]) {
 }
 
 static void run(query *q) {
-    q->code = vps_contact(voxmap, shell, q->pose, stiffness, budget_us, &q->c, q->err, sizeof q->err);
+    if (layers) {
+        vps_contact_params params = {0};
+        params.stiffness = stiffness;
+        params.budget_us = budget_us;
+        params.penetration = VPS_PENETRATION_LAYERS;
+        q->code = vps_contact_with_params(voxmap, shell, q->pose, &params, &q->c, q->err, sizeof q->err);
+    } else {
+        q->code = vps_contact(voxmap, shell, q->pose, stiffness, budget_us, &q->c, q->err, sizeof q->err);
+    }
 }
 
 /* Print one answer; returns 1 when it is an error. */
@@ -122,7 +134,7 @@ static void *worker(void *arg) {
 }
 
 static void usage(void) {
-    fprintf(stderr, "usage: contact [-t THREADS] [-b BUDGET_US] VXM VPS STIFFNESS [POSES]\n");
+    fprintf(stderr, "usage: contact [-t THREADS] [-b BUDGET_US] [-l] VXM VPS STIFFNESS [POSES]\n");
     exit(2);
 }
 
@@ -133,6 +145,8 @@ int main(int argc, char **argv) {
             threads = atoi(argv[++a]);
         } else if (!strcmp(argv[a], "-b") && a + 1 < argc) {
             budget_us = strtod(argv[++a], NULL);
+        } else if (!strcmp(argv[a], "-l")) {
+            layers = 1;
         } else {
             usage();
         }

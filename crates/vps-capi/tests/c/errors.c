@@ -52,6 +52,9 @@ int main(int argc, char **argv) {
            offsetof(vps_contact_result, complete), offsetof(vps_contact_result, reserved));
     printf("codes %d %d %d %d %d %d\n", VPS_OK, VPS_ERR_NULL, VPS_ERR_POSE, VPS_ERR_PARAM, VPS_ERR_STORAGE,
            VPS_ERR_INTERNAL);
+    printf("params %zu %zu %zu %zu %zu %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
+           offsetof(vps_contact_params, budget_us), offsetof(vps_contact_params, penetration),
+           offsetof(vps_contact_params, reserved), VPS_PENETRATION_DISTANCE, VPS_PENETRATION_LAYERS);
     printf("version %s\n", vps_version());
 
     /* Version. */
@@ -142,6 +145,27 @@ int main(int argc, char **argv) {
     /* Stiffness scales the force. */
     CHECK(vps_contact(vm, ps, id, 0, 0, &c, err, sizeof err) == VPS_OK);
     CHECK(c.force[0] == 0 && c.force[1] == 0 && c.force[2] == 0 && c.points_in_contact == a.points_in_contact);
+
+    /* The params form: zeroed fields but the stiffness are vps_contact's defaults; the layer
+     * penetration is another formula on this (version 2) file; bad choices are refused. */
+    vps_contact_params params = {0};
+    params.stiffness = 2;
+    CHECK(vps_contact_with_params(vm, ps, id, &params, &b, err, sizeof err) == VPS_OK);
+    CHECK(memcmp(a.force, b.force, sizeof a.force) == 0 && b.points_in_contact == a.points_in_contact);
+    params.penetration = VPS_PENETRATION_LAYERS;
+    CHECK(vps_contact_with_params(vm, ps, id, &params, &c, err, sizeof err) == VPS_OK);
+    CHECK(c.points_in_contact == a.points_in_contact && memcmp(a.force, c.force, sizeof a.force) != 0);
+    CHECK(vps_contact_with_params(vm, ps, id, NULL, &c, err, sizeof err) == VPS_ERR_NULL);
+    CHECK(strcmp(err, "params is NULL") == 0);
+    params.penetration = 2;
+    memset(&out, 0xAB, sizeof out);
+    CHECK(vps_contact_with_params(vm, ps, id, &params, &out, err, sizeof err) == VPS_ERR_PARAM);
+    CHECK(strstr(err, "penetration 2") != NULL);
+    params.penetration = VPS_PENETRATION_DISTANCE;
+    params.reserved = 1;
+    CHECK(vps_contact_with_params(vm, ps, id, &params, &out, err, sizeof err) == VPS_ERR_PARAM);
+    CHECK(strstr(err, "reserved") != NULL);
+    CHECK(untouched(&out));
 
     /* Time-critical: a generous budget is exact; a tiny one still answers, with bounds. */
     CHECK(vps_contact(vm, ps, id, 2, 1e9, &b, err, sizeof err) == VPS_OK);

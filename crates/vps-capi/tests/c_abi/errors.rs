@@ -46,6 +46,20 @@ fn d_the_header_matches_the_rust_side() {
         layout, rust_layout,
         "vps_contact_result: sizeof and offsetof in C vs Rust"
     );
+    let params: Vec<usize> = line("params ").iter().map(|x| x.parse().unwrap()).collect();
+    assert_eq!(
+        params,
+        [
+            size_of::<ffi::VpsContactParams>(),
+            offset_of!(ffi::VpsContactParams, stiffness),
+            offset_of!(ffi::VpsContactParams, budget_us),
+            offset_of!(ffi::VpsContactParams, penetration),
+            offset_of!(ffi::VpsContactParams, reserved),
+            ffi::VPS_PENETRATION_DISTANCE as usize,
+            ffi::VPS_PENETRATION_LAYERS as usize,
+        ],
+        "vps_contact_params and the penetration codes in C vs Rust"
+    );
     let codes: Vec<i32> = line("codes ").iter().map(|x| x.parse().unwrap()).collect();
     assert_eq!(
         codes,

@@ -28,7 +28,7 @@ use vps::haptics::HapticsError;
 use vps::shapes::{self, SplitMix};
 use vps::{
     contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, Contact, ContactParams, Mesh,
-    Pointshell, PointshellFile, Pose, Triangle, VoxelizeParams, Voxmap, VoxmapFile, LEAF_SIZE,
+    Penetration, Pointshell, PointshellFile, Pose, Triangle, VoxelizeParams, Voxmap, VoxmapFile, LEAF_SIZE,
 };
 use vps_capi::{self as ffi, VpsContactResult};
 
@@ -358,10 +358,19 @@ pub(crate) fn code_of(e: &HapticsError) -> i32 {
 
 /// The replies of the query in this process.
 pub(crate) fn in_process(vm: &CachedVoxmap, shell: &PointshellFile, poses: &[PoseArray]) -> Vec<Reply> {
+    in_process_with(vm, shell, poses, Penetration::default())
+}
+
+pub(crate) fn in_process_with(
+    vm: &CachedVoxmap,
+    shell: &PointshellFile,
+    poses: &[PoseArray],
+    penetration: Penetration,
+) -> Vec<Reply> {
     let params = ContactParams {
         stiffness: STIFFNESS,
         budget: None,
-        ..Default::default()
+        penetration,
     };
     poses
         .iter()
@@ -425,7 +434,13 @@ pub(crate) fn run(cmd: &mut Command) -> Output {
 
 /// `contact` on the files, with the poses in a file; it must exit 0, or 1 when some poses fail.
 pub(crate) fn contact_c(vxm: &Path, vps: &Path, poses_file: &Path) -> Vec<Reply> {
+    contact_c_with(&[], vxm, vps, poses_file)
+}
+
+/// [`contact_c`] with options of the C program before the files (`-l`, `-b US`, `-t N`).
+pub(crate) fn contact_c_with(options: &[&str], vxm: &Path, vps: &Path, poses_file: &Path) -> Vec<Reply> {
     let out = run(c_command(&programs().contact)
+        .args(options)
         .arg(vxm)
         .arg(vps)
         .arg(STIFFNESS.to_string())
