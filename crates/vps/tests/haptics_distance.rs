@@ -158,3 +158,71 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
         assert_eq!(cur.distance_at(u), want, "at {u}");
     }
 }
+
+/// Each point in contact pushes with `K · d · w · ñ`, its interpolated penetration `d` times
+/// the area it stands for, `w = 1 / (|n_x| + |n_y| + |n_z|)` of its own normal: the sum over
+/// hand-placed points with random normals, point by point.
+#[test]
+fn each_point_is_weighted_by_the_area_it_stands_for() {
+    use glam::Vec3;
+    use vps::pointshell::tree::{reorder, SphereTree};
+    let p = pair(
+        shapes::cuboid(DVec3::new(-10.0, -10.0, -3.0), DVec3::new(10.0, 10.0, 0.037)),
+        0.2,
+        shapes::sphere(DVec3::ZERO, 1.0, 8, 16),
+        0.2,
+    );
+    let mut rng = vps::shapes::SplitMix(11);
+    let (mut points, mut normals) = (Vec::new(), Vec::new());
+    for _ in 0..300 {
+        points.push(Vec3::new(
+            rng.range(-5.0, 5.0) as f32,
+            rng.range(-5.0, 5.0) as f32,
+            rng.range(-0.6, 0.3) as f32,
+        ));
+        let n = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        normals.push(n.normalize().as_vec3());
+    }
+    let (tree, order) = SphereTree::build(&points, &normals, 8);
+    let shell = vps::Pointshell {
+        origin: DVec3::ZERO,
+        voxel_size: 0.2,
+        points: reorder(&points, &order),
+        normals: reorder(&normals, &order),
+        tree,
+        stats: Default::default(),
+    };
+    let params = ContactParams {
+        stiffness: 3.0,
+        ..Default::default()
+    };
+    let got = contact(
+        &p.voxmap,
+        &shell,
+        &Pose::new([0.0; 3], [1.0, 0.0, 0.0, 0.0]).unwrap(),
+        &params,
+    )
+    .unwrap();
+
+    let grid = *p.voxmap.grid();
+    let mut cur = p.voxmap.cursor();
+    let (mut force, mut touching) = (DVec3::ZERO, 0);
+    for (q, n) in shell.points.iter().zip(&shell.normals) {
+        let u = (q.as_dvec3() - grid.origin) / grid.voxel_size;
+        let d = grid.voxel_size * cur.distance_at(u);
+        if d > 0.0 {
+            touching += 1;
+            let n = n.as_dvec3();
+            let w = 1.0 / (n.x.abs() + n.y.abs() + n.z.abs());
+            force += 3.0 * d * w * n;
+        }
+    }
+    assert!(touching > 50 && touching < 300, "{touching} points in contact");
+    assert_eq!(got.points_in_contact, touching);
+    assert!(force.length() > 0.0);
+    assert!(
+        (got.force - force).length() <= 1e-12 * force.length(),
+        "{} vs {force}",
+        got.force
+    );
+}

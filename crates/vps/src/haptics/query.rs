@@ -145,6 +145,20 @@ impl Contact {
     }
 }
 
+/// The surface area a pointshell point stands for, in units of the pointshell's voxel face,
+/// from its unit normal `n` in the pointshell's frame: `1 / (|n_x| + |n_y| + |n_z|)`.
+///
+/// The points are one per voxel that the surface touches, and a plane of unit normal `n`
+/// touches the voxels whose centres lie within `(|n_x| + |n_y| + |n_z|) / 2` voxels of it: a
+/// slab holding that many voxels per voxel face of area. So a face at 45° to the lattice has
+/// √2 times the points of an aligned one, and without this weight it pushes √2 times as hard
+/// at the same depth (`docs/HAPTICS.md`). The weight is at most 1 (an aligned face) and at
+/// least 1/√3.
+#[inline(always)]
+fn area_weight(n: Vec3) -> f64 {
+    1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
+}
+
 /// A pose, the voxmap's grid and the stiffness folded into what each point needs.
 struct Frame<'a> {
     voxmap: &'a CachedVoxmap,
@@ -231,7 +245,8 @@ impl<'a> Frame<'a> {
 
     /// Test points `range`, adding to `acc` in index order.
     ///
-    /// Force and torque are summed without the stiffness, `Σ d·n` and `Σ d·(r × n)`, and scaled
+    /// Force and torque are summed without the stiffness, `Σ d·n` and `Σ d·(r × n)` (with
+    /// interpolated distances, `d` times the point's [`area_weight`]), and scaled
     /// once at the end of the query: one multiplication less per point, and stiffness scales
     /// the result exactly. The running sums live in registers for the loop and are stored back
     /// after it, which adds the same terms in the same order as adding into `acc` directly.
@@ -267,9 +282,10 @@ impl<'a> Frame<'a> {
                     let d = self.s * cur.distance_at(u[k]);
                     if d > 0.0 {
                         touching += 1;
+                        let f = d * area_weight(*n);
                         let n = self.rot * n.as_dvec3();
-                        force += n * d;
-                        torque += r[k].cross(n) * d;
+                        force += n * f;
+                        torque += r[k].cross(n) * f;
                         deepest = deepest.max(d);
                     }
                 }
@@ -468,7 +484,9 @@ impl<'a> Frame<'a> {
         if value >= 0 && axis.length_squared() > 0.0 {
             let n = (self.rot * axis).normalize();
             let d = if self.distance {
-                self.s * cur.distance_at(u)
+                // Weighted like its points, which keeps the estimate within the bound: the
+                // weights are at most 1.
+                self.s * cur.distance_at(u) * area_weight(axis.normalize().as_vec3())
             } else {
                 self.penetration(value, v, u, n)
             };
