@@ -22,7 +22,16 @@ struct Agreement {
     worst_wrong_side: f64,
 }
 
-fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
+/// One stored voxel against the brute force: whether its centre is inside (winding number),
+/// its exact unsigned distance clamped to the reach, and the stored signed one, in voxels.
+struct Voxel {
+    inside: bool,
+    distance: f64,
+    stored: f64,
+}
+
+/// Every stored voxel of the voxmap of `tris` against the brute force.
+fn voxels(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Vec<Voxel> {
     let mesh = Mesh::from_triangles("m", tris).unwrap();
     let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(voxel_size, layers)).unwrap();
     let grid = *vm.grid();
@@ -34,39 +43,87 @@ fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
     let reference = WindingReference::new(&grid, &[&mesh.triangles[..]]);
     let stored = signed_distances(&mesh, &vm);
     let reach = distance_reach(layers);
-    let mut a = Agreement::default();
+    let mut out = Vec::new();
     for (brick, dist) in vm.bricks().iter().zip(&stored) {
         let b = grid.brick_coords(brick.key).map(|c| c << BRICK_SHIFT);
         for z in 0..BRICK {
             for y in 0..BRICK {
                 for x in 0..BRICK {
-                    let l = local_index(x, y, z);
                     let v = [b[0] + x, b[1] + y, b[2] + z];
                     let c = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
-                    let d = grid_tris
+                    let distance = grid_tris
                         .iter()
                         .map(|t| closest_point(c, t).dist_sq)
                         .fold(f64::INFINITY, f64::min)
                         .sqrt()
                         .min(reach);
-                    let exact = if reference.is_inside(v) { d } else { -d };
-                    let got = dist[l] as f64 * DISTANCE_STEP;
-                    a.voxels += 1;
-                    // Half a step of rounding, and the f32 the distance is measured in.
-                    if (got - exact).abs() <= 0.5 * DISTANCE_STEP + 1e-5 {
-                        continue;
-                    }
-                    if got.signum() != exact.signum() {
-                        a.wrong_side += 1;
-                        a.worst_wrong_side = a.worst_wrong_side.max(d);
-                    } else {
-                        a.worst = a.worst.max((got - exact).abs());
-                    }
+                    out.push(Voxel {
+                        inside: reference.is_inside(v),
+                        distance,
+                        stored: dist[local_index(x, y, z)] as f64 * DISTANCE_STEP,
+                    });
                 }
             }
         }
     }
+    out
+}
+
+/// Half a step of rounding, and the f32 the distance is measured in.
+const ROUNDING: f64 = 0.5 * DISTANCE_STEP + 1e-5;
+
+fn agreement(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Agreement {
+    let mut a = Agreement::default();
+    for v in voxels(tris, voxel_size, layers) {
+        let exact = if v.inside { v.distance } else { -v.distance };
+        a.voxels += 1;
+        if (v.stored - exact).abs() <= ROUNDING {
+            continue;
+        }
+        if v.stored.signum() != exact.signum() {
+            a.wrong_side += 1;
+            a.worst_wrong_side = a.worst_wrong_side.max(v.distance);
+        } else {
+            a.worst = a.worst.max((v.stored - exact).abs());
+        }
+    }
     a
+}
+
+/// Walls too thin to have inner voxels (two voxels thick with their faces on voxel faces, and
+/// off them; one and a half voxels): every voxel centre inside reads its exact distance, so a
+/// point cannot pass through the wall unfelt; outside, the exact distance or, next to the wall,
+/// the plate's `½ − d` (at most half a voxel thicker).
+#[test]
+fn thin_walls_read_inside_where_they_are() {
+    for (name, x0, x1) in [
+        ("2 voxels on voxel faces", 0.0, 0.5),
+        ("2 voxels off them", 0.037, 0.537),
+        ("1.5 voxels", 0.037, 0.412),
+    ] {
+        let wall = shapes::cuboid(DVec3::new(x0, -2.0, -2.0), DVec3::new(x1, 2.0, 2.0));
+        let (mut inside, mut plate) = (0, 0);
+        for v in voxels(wall, 0.25, 3) {
+            if v.inside {
+                inside += 1;
+                assert!(
+                    (v.stored - v.distance).abs() <= ROUNDING,
+                    "{name}: {} inside, stored {}",
+                    v.distance,
+                    v.stored
+                );
+            } else if (v.stored + v.distance).abs() > ROUNDING {
+                plate += 1;
+                assert!(
+                    (v.stored - (0.5 - v.distance)).abs() <= ROUNDING,
+                    "{name}: {} outside, stored {}",
+                    v.distance,
+                    v.stored
+                );
+            }
+        }
+        assert!(inside > 100, "{name}: {inside} inside, {plate} plate");
+    }
 }
 
 /// On closed shapes, flipped triangles and faces lying on voxel faces, every stored distance is

@@ -15,11 +15,16 @@
 //!   steps out along the axis nearest the normal would be a voxel that touches no triangle
 //!   (2/√3 > √3/2) and is outside;
 //! - a surface voxel with no inside voxel in its 5×5×5 neighbourhood (the pointshell's
-//!   two-sided points) lies on a sheet with air on both sides (an open panel, a shell thinner
-//!   than a voxel): the sheet is taken as a plate half a voxel thick,
-//!   `φ = ½ − d`, so a point pressed into it is pushed out the way it came, and the field is
-//!   continuous across the sheet. Its outside neighbours, at `d > ½`, get `−d` as any outside
-//!   voxel, which the plate formula would also give up to the ½ (see `docs/VOXMAP.md`).
+//!   two-sided points) lies in a solid too thin to have inner voxels, or on a sheet with air on
+//!   both sides (an open panel, a shell thinner than a voxel). The first kind is told by the
+//!   same test, `c − q` along the values' growth, which points into a thin solid: a wall two
+//!   voxels thick whose faces lie on voxel faces has only surface voxels, and its middle must
+//!   read as inside, or a point could pass through it. Otherwise the sheet is taken as a
+//!   plate half a voxel thick, `φ = ½ − d`, so a point pressed into it is pushed out the way
+//!   it came, and the field is continuous across the sheet (the outer surface voxels of a thin
+//!   solid take this too: at most half a voxel thicker). Its outside neighbours, at `d > ½`,
+//!   get `−d` as any outside voxel, which the plate formula would also give up to the ½ (see
+//!   `docs/VOXMAP.md`).
 //!
 //! A surface voxel that no triangle touches (farther than half its diagonal from all of them:
 //! an interface voxel of the winding fill, over a hole) holds 0: the boundary there is the
@@ -95,18 +100,17 @@ pub fn signed_distances(mesh: &Mesh, voxmap: &Voxmap) -> Vec<BrickDistances> {
                         outside |= v < 0;
                         g += DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * v as f64;
                     }
-                    let phi = if !inside {
-                        0.5 - d
-                    } else if !outside {
-                        d
-                    } else {
+                    let towards_values = || {
                         let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;
                         let q = closest_point(c, &triangles[near.triangle[local] as usize]).point;
-                        if (c - q).dot(g) > 0.0 {
-                            d
-                        } else {
-                            -d
-                        }
+                        (c - q).dot(g) > 0.0
+                    };
+                    let phi = if !outside || towards_values() {
+                        d
+                    } else if !inside {
+                        0.5 - d
+                    } else {
+                        -d
                     };
                     *o = quantize(phi);
                 }
