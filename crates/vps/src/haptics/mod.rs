@@ -11,9 +11,12 @@
 //! - With a time budget, [`contact`] refines the tree breadth-first and stops when the budget is
 //!   spent: unrefined spheres stand for their points, and the result carries an error bound
 //!   (Barbič & James 2007).
+//! - [`simulation::Simulation`] is the haptic loop around the query: a simulated rigid object
+//!   pulled by the device through a virtual coupling, never pushed through a wall.
 
 mod cache;
 mod query;
+pub mod simulation;
 pub mod trajectory;
 
 pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};

@@ -155,7 +155,7 @@ impl Contact {
 /// at the same depth (`docs/HAPTICS.md`). The weight is at most 1 (an aligned face) and at
 /// least 1/√3.
 #[inline(always)]
-fn area_weight(n: Vec3) -> f64 {
+pub(crate) fn area_weight(n: Vec3) -> f64 {
     1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
 }
 

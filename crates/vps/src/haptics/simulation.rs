@@ -1,0 +1,495 @@
+//! The 6-DoF haptic loop: a simulated rigid object between the device and the contact query.
+//!
+//! Rendering the penalty force at the device's own pose is neither stable at useful stiffness
+//! nor safe at speed, so, as every VPS system does (McNeely, Puterbaugh & Troy 1999), the
+//! device pulls a simulated copy of the held object through a spring–damper, the *virtual
+//! coupling*, and the contact query pushes on that copy, never on the device. Each step
+//! ([`Simulation::step`], one per device sample, 1 ms apart):
+//!
+//! 1. the wrench on the object: the coupling's spring towards the device pose and damper on the
+//!    velocity difference, plus the contact wrench at the object's pose;
+//! 2. the new velocity by a linearly implicit Euler step (backward Euler linearised at the
+//!    current state): `(M + h·B + h²·K) v' = (M + h·B) v + h·F`, per linear and angular part,
+//!    with `K` the coupling stiffness plus a bound of the contact stiffness: `K_c` per point in
+//!    contact along the contact force, and that times the shell's radius squared for turns
+//!    about the axes across it. Over-estimating `K` only damps, so the step stays stable as
+//!    the contact stiffens; nothing is added along a face, which would brake a slide;
+//! 3. the motion `h·v'` by *conservative advancement* on the distance field: in sub-steps in
+//!    which no point moves more than a quarter of a voxel of the voxmap, a contact query each,
+//!    stopping (bisected to 1/256 of the sub-step) where the deepest point would pass
+//!    [`SimulationParams::max_penetration`], a quarter of a voxel by default. A wall at least
+//!    two voxels thick is never crossed, however fast the device moves: its interpolated
+//!    distance reaches at least half a voxel inside (two voxel centres lie in it, their
+//!    distances adding up to at least one voxel), and changes by at most √3 per voxel moved,
+//!    so the part of the wall deeper than a quarter voxel is at least 0.29 voxels across and
+//!    no point can step over it.
+//!    When stopped, the rest of the motion is tried once more with its part along the contact
+//!    force removed, so a blocked object still slides;
+//! 4. the velocity the object really moved with, and the wrench the device feels: the
+//!    coupling's, reversed.
+//!
+//! `docs/HAPTICS.md` ("The haptic loop") states the defaults and what the tests show.
+
+use std::time::Instant;
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::query::area_weight;
+use super::{contact, CachedVoxmap, Contact, ContactParams, HapticsError};
+use crate::geometry::Pose;
+use crate::pointshell::PointshellData;
+
+/// Mass, centre of mass and inertia of the simulated object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassProperties {
+    /// Mass, in the user's units.
+    pub mass: f64,
+    /// Centre of mass in the pointshell's frame.
+    pub centre: DVec3,
+    /// Inertia tensor about the centre of mass, in the pointshell's frame.
+    pub inertia: DMat3,
+}
+
+impl MassProperties {
+    /// A thin shell of total `mass`, spread over the pointshell's points by the area each
+    /// stands for (see `docs/HAPTICS.md`): the inertia of a hollow object of the same surface.
+    ///
+    /// # Panics
+    /// If the pointshell has no points or `mass` is not finite and positive.
+    pub fn of_shell<S: PointshellData + ?Sized>(shell: &S, mass: f64) -> MassProperties {
+        assert!(mass.is_finite() && mass > 0.0, "mass must be finite and positive");
+        assert!(!shell.points().is_empty(), "a pointshell without points has no mass");
+        let weights: Vec<f64> = shell.normals().iter().map(|&n| area_weight(n)).collect();
+        let total: f64 = weights.iter().sum();
+        let at = |p: &glam::Vec3| shell.origin() + p.as_dvec3();
+        let centre = shell
+            .points()
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| at(p) * *w)
+            .sum::<DVec3>()
+            / total;
+        let mut inertia = DMat3::ZERO;
+        for (p, w) in shell.points().iter().zip(&weights) {
+            let r = at(p) - centre;
+            // m (|r|² I − r rᵀ), column by column.
+            let m = mass * w / total;
+            inertia += DMat3::from_diagonal(DVec3::splat(m * r.length_squared()))
+                - DMat3::from_cols(r * (m * r.x), r * (m * r.y), r * (m * r.z));
+        }
+        MassProperties { mass, centre, inertia }
+    }
+
+    /// The radius of gyration: `sqrt(trace(I) / 2m)`, the distance at which the whole mass
+    /// would have the same mean moment of inertia.
+    pub fn radius_of_gyration(&self) -> f64 {
+        let trace = self.inertia.x_axis.x + self.inertia.y_axis.y + self.inertia.z_axis.z;
+        (trace / (2.0 * self.mass)).sqrt()
+    }
+}
+
+/// The spring–damper between the device and the simulated object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coupling {
+    /// Force per unit of offset between the device's and the object's centres of mass.
+    pub stiffness: f64,
+    /// Force per unit of velocity difference.
+    pub damping: f64,
+    /// Torque per radian of rotation between the device's and the object's orientation.
+    pub angular_stiffness: f64,
+    /// Torque per radian per second of angular velocity difference.
+    pub angular_damping: f64,
+}
+
+impl Coupling {
+    /// The defaults for `body` at time step `h` seconds: the linear spring makes a natural
+    /// frequency of `0.2 / h` radians per second with the mass (32 Hz at 1 kHz), critically
+    /// damped; the angular spring is the linear one at the radius of gyration, critically
+    /// damped with the mean moment of inertia.
+    pub fn for_body(body: &MassProperties, h: f64) -> Coupling {
+        let omega = 0.2 / h;
+        let stiffness = body.mass * omega * omega;
+        let rho = body.radius_of_gyration().max(f64::MIN_POSITIVE);
+        let angular_stiffness = stiffness * rho * rho;
+        let mean_inertia = body.mass * rho * rho * 2.0 / 3.0;
+        Coupling {
+            stiffness,
+            damping: 2.0 * (stiffness * body.mass).sqrt(),
+            angular_stiffness,
+            angular_damping: 2.0 * (angular_stiffness * mean_inertia).sqrt(),
+        }
+    }
+}
+
+/// What a [`Simulation`] needs besides the objects.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimulationParams {
+    /// Time step, seconds: the device's sample period (1 kHz: 0.001).
+    pub step: f64,
+    /// The virtual coupling.
+    pub coupling: Coupling,
+    /// The contact query's parameters; its stiffness is `K_c`, per point of an aligned face.
+    pub contact: ContactParams,
+    /// The deepest any point may go into the static object, in voxels of the voxmap. At the
+    /// default, ¼, a wall two voxels thick is never crossed (see the module's documentation).
+    pub max_penetration: f64,
+}
+
+impl SimulationParams {
+    /// The defaults for `body` and a voxmap of voxel size `voxel`, at 1 kHz: [`Coupling::for_body`];
+    /// contact stiffness per point that of the coupling (a contact of `n` points is `n` times
+    /// stiffer than the coupling, so the object sinks about `1/(n + 1)` of the device's offset);
+    /// at most a quarter of a voxel deep.
+    pub fn for_body(body: &MassProperties) -> SimulationParams {
+        let step = 1e-3;
+        let coupling = Coupling::for_body(body, step);
+        SimulationParams {
+            step,
+            coupling,
+            contact: ContactParams {
+                stiffness: coupling.stiffness,
+                ..Default::default()
+            },
+            max_penetration: 0.25,
+        }
+    }
+}
+
+/// The state of the simulated object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// The pose of the pointshell's frame.
+    pub pose: Pose,
+    /// Velocity of the centre of mass, world frame.
+    pub velocity: DVec3,
+    /// Angular velocity, world frame, radians per second.
+    pub angular_velocity: DVec3,
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Step {
+    /// The object's pose after the step.
+    pub pose: Pose,
+    /// The force to render on the device: the coupling's pull on it, world frame.
+    pub device_force: DVec3,
+    /// The torque to render on the device, about its centre of mass, world frame.
+    pub device_torque: DVec3,
+    /// The contact at the object's new pose (force and torque about the pose's translation).
+    pub contact: Contact,
+    /// Whether the advancement stopped short to keep every point within the allowed depth.
+    pub limited: bool,
+    /// Contact queries the step ran.
+    pub queries: u32,
+    /// Kinetic energy after the step.
+    pub kinetic_energy: f64,
+    /// Energy in the coupling's springs after the step.
+    pub coupling_energy: f64,
+    /// Wall time of the step, microseconds.
+    pub micros: f64,
+}
+
+/// Sub-steps of an advancement move no point by more than this many voxels.
+const SUBSTEP_VOXELS: f64 = 0.25;
+/// At most this many sub-steps per step: faster motion is slowed to it (a speed limit of
+/// `MAX_SUBSTEPS · SUBSTEP_VOXELS` voxels per step, reported as `limited`).
+const MAX_SUBSTEPS: u32 = 64;
+/// Bisections of a sub-step that went too deep: to 1/256 of it.
+const BISECTIONS: u32 = 8;
+
+/// A simulated rigid object held through a virtual coupling, in contact with a voxmap.
+pub struct Simulation<'a, S: PointshellData + ?Sized> {
+    voxmap: &'a CachedVoxmap,
+    shell: &'a S,
+    body: MassProperties,
+    params: SimulationParams,
+    state: BodyState,
+    /// The contact at the current pose.
+    contact: Contact,
+    /// The device's centre of mass and orientation at the previous step.
+    device_before: Option<(DVec3, DQuat)>,
+    /// The largest distance of a point from the centre of mass.
+    radius: f64,
+    /// The voxmap's voxel size.
+    voxel: f64,
+}
+
+impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
+    /// The object of `shell` at rest at `start` (a pose of the pointshell's frame), with
+    /// `body`'s mass and `params`. `start` must keep every point within the allowed depth.
+    pub fn new(
+        voxmap: &'a CachedVoxmap,
+        shell: &'a S,
+        body: MassProperties,
+        params: SimulationParams,
+        start: Pose,
+    ) -> Result<Simulation<'a, S>, HapticsError> {
+        let c = params.coupling;
+        let positive = [params.step, body.mass, params.max_penetration];
+        let non_negative = [c.stiffness, c.damping, c.angular_stiffness, c.angular_damping];
+        if !positive.iter().all(|x| x.is_finite() && *x > 0.0)
+            || !non_negative.iter().all(|x| x.is_finite() && *x >= 0.0)
+            || !body.centre.is_finite()
+            || !body.inertia.is_finite()
+        {
+            return Err(HapticsError::Params(format!("{params:?}, {body:?}")));
+        }
+        let radius = shell
+            .points()
+            .iter()
+            .map(|p| (shell.origin() + p.as_dvec3() - body.centre).length())
+            .fold(0.0, f64::max);
+        let contact = contact(voxmap, shell, &start, &params.contact)?;
+        let voxel = voxmap.grid().voxel_size;
+        if contact.max_penetration > params.max_penetration * voxel {
+            return Err(HapticsError::Params(format!(
+                "the start pose is {} voxels deep, more than the {} allowed",
+                contact.max_penetration / voxel,
+                params.max_penetration
+            )));
+        }
+        Ok(Simulation {
+            voxmap,
+            shell,
+            body,
+            params,
+            state: BodyState {
+                pose: start,
+                velocity: DVec3::ZERO,
+                angular_velocity: DVec3::ZERO,
+            },
+            contact,
+            device_before: None,
+            radius,
+            voxel,
+        })
+    }
+
+    /// The object's state.
+    pub fn state(&self) -> &BodyState {
+        &self.state
+    }
+
+    /// The object's mass properties.
+    pub fn body(&self) -> &MassProperties {
+        &self.body
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &SimulationParams {
+        &self.params
+    }
+
+    /// The centre of mass of the pointshell frame at `pose`, world frame.
+    fn centre_at(&self, pose: &Pose) -> DVec3 {
+        pose.transform_point(self.body.centre)
+    }
+
+    /// The coupling's offsets to `device`: position (device minus object) and rotation vector
+    /// (from the object's orientation to the device's).
+    fn offsets(&self, device: &Pose) -> (DVec3, DVec3) {
+        let dx = self.centre_at(device) - self.centre_at(&self.state.pose);
+        (
+            dx,
+            rotation_vector(device.rotation * self.state.pose.rotation.inverse()),
+        )
+    }
+
+    /// One step towards the device at `device` (a pose of the pointshell's frame, as the
+    /// object's).
+    pub fn step(&mut self, device: &Pose) -> Result<Step, HapticsError> {
+        let started = Instant::now();
+        let device = Pose::new(device.translation.to_array(), {
+            let q = device.rotation;
+            [q.w, q.x, q.y, q.z]
+        })?;
+        let (h, c, m) = (self.params.step, self.params.coupling, self.body.mass);
+        let device_centre = self.centre_at(&device);
+        // The device's velocities, by finite difference (none before its second sample).
+        let (device_velocity, device_spin) = match self.device_before {
+            Some((x, q)) => (
+                (device_centre - x) / h,
+                rotation_vector(device.rotation * q.inverse()) / h,
+            ),
+            None => (DVec3::ZERO, DVec3::ZERO),
+        };
+        self.device_before = Some((device_centre, device.rotation));
+
+        let s = self.state;
+        let (offset, turn) = self.offsets(&device);
+        let centre = self.centre_at(&s.pose);
+        let coupling_force = offset * c.stiffness + (device_velocity - s.velocity) * c.damping;
+        let coupling_torque = turn * c.angular_stiffness + (device_spin - s.angular_velocity) * c.angular_damping;
+        // The contact torque is about the pose's translation; about the centre of mass:
+        let contact_torque = self.contact.torque + (s.pose.translation - centre).cross(self.contact.force);
+        let force = coupling_force + self.contact.force;
+        let torque = coupling_torque + contact_torque;
+
+        // Linearly implicit Euler, linear and angular parts apart. The contact's stiffness is
+        // bounded by `K_c` per point in contact along the contact force (the points' normals
+        // there), and by that times the shell's radius squared for turns about the axes across
+        // it; none along a face (no friction), none for a spin about the normal.
+        let normal = self.contact.force.normalize_or_zero();
+        let k_contact = self.params.contact.stiffness * self.contact.points_in_contact as f64;
+        let along = DMat3::from_cols(normal * normal.x, normal * normal.y, normal * normal.z);
+        let k_linear = DMat3::from_diagonal(DVec3::splat(c.stiffness)) + along * k_contact;
+        let mass = DMat3::from_diagonal(DVec3::splat(m + h * c.damping));
+        let velocity = (mass + k_linear * (h * h)).inverse() * (mass * s.velocity + h * force);
+        let rot = s.pose.matrix();
+        let inertia = rot * self.body.inertia * rot.transpose();
+        let across = DMat3::IDENTITY - along;
+        let k_angular =
+            DMat3::from_diagonal(DVec3::splat(c.angular_stiffness)) + across * (k_contact * self.radius * self.radius);
+        let held = inertia + DMat3::from_diagonal(DVec3::splat(h * c.angular_damping));
+        let spin = (held + k_angular * (h * h)).inverse() * (held * s.angular_velocity + h * torque);
+
+        let (pose, contact, limited, queries) = self.advance(velocity * h, spin * h)?;
+        let moved = self.centre_at(&pose) - centre;
+        let turned = rotation_vector(pose.rotation * s.pose.rotation.inverse());
+        self.state = if limited {
+            BodyState {
+                pose,
+                velocity: moved / h,
+                angular_velocity: turned / h,
+            }
+        } else {
+            BodyState {
+                pose,
+                velocity,
+                angular_velocity: spin,
+            }
+        };
+        self.contact = contact;
+
+        let (offset, turn) = self.offsets(&device);
+        let st = self.state;
+        let pull = offset * c.stiffness + (device_velocity - st.velocity) * c.damping;
+        let twist = turn * c.angular_stiffness + (device_spin - st.angular_velocity) * c.angular_damping;
+        let inertia = pose.matrix() * self.body.inertia * pose.matrix().transpose();
+        Ok(Step {
+            pose,
+            device_force: -pull,
+            device_torque: -twist,
+            contact,
+            limited,
+            queries,
+            kinetic_energy: 0.5 * m * st.velocity.length_squared()
+                + 0.5 * st.angular_velocity.dot(inertia * st.angular_velocity),
+            coupling_energy: 0.5 * c.stiffness * offset.length_squared()
+                + 0.5 * c.angular_stiffness * turn.length_squared(),
+            micros: started.elapsed().as_secs_f64() * 1e6,
+        })
+    }
+
+    /// Move the object by `shift` (of its centre of mass) and `turn` (a rotation vector about
+    /// it) as far as the allowed depth lets it: the pose reached, the contact there, whether it
+    /// stopped short, and the queries run.
+    fn advance(&self, shift: DVec3, turn: DVec3) -> Result<(Pose, Contact, bool, u32), HapticsError> {
+        let start = self.state.pose;
+        let (pose, contact, fraction, mut queries) = self.advance_from(&start, self.contact, shift, turn)?;
+        if fraction >= 1.0 {
+            return Ok((pose, contact, false, queries));
+        }
+        // Blocked: slide. The rest of the motion, without its part along the contact force
+        // (the wall's normal there) and about the contact torque.
+        let rest = 1.0 - fraction;
+        let along = |v: DVec3, n: DVec3| {
+            let n = n.normalize_or_zero();
+            let into = v.dot(n).min(0.0);
+            v - n * into
+        };
+        let shift = along(shift * rest, contact.force);
+        let turn = along(turn * rest, contact.torque);
+        let (slid, slid_contact, _, more) = self.advance_from(&pose, contact, shift, turn)?;
+        queries += more;
+        Ok((slid, slid_contact, true, queries))
+    }
+
+    /// Conservative advancement from `from` (with its contact `at_start`): the pose at the
+    /// largest fraction of the motion found with every point within the allowed depth, its
+    /// contact, that fraction, and the queries run.
+    fn advance_from(
+        &self,
+        from: &Pose,
+        at_start: Contact,
+        shift: DVec3,
+        turn: DVec3,
+    ) -> Result<(Pose, Contact, f64, u32), HapticsError> {
+        let limit = self.params.max_penetration * self.voxel;
+        let reach = shift.length() + turn.length() * self.radius;
+        let wanted = (reach / (SUBSTEP_VOXELS * self.voxel)).ceil();
+        // Too fast: slowed to the speed limit.
+        let (n, scale) = if wanted > MAX_SUBSTEPS as f64 {
+            (MAX_SUBSTEPS, MAX_SUBSTEPS as f64 / wanted)
+        } else {
+            (wanted.max(1.0) as u32, 1.0)
+        };
+        let centre = self.centre_at(from);
+        let at = |fraction: f64| -> Result<Pose, HapticsError> {
+            let f = fraction * scale;
+            let rotation = (DQuat::from_scaled_axis(turn * f) * from.rotation).normalize();
+            let c = centre + shift * f;
+            let translation = c - rotation * self.body.centre;
+            let q = [rotation.w, rotation.x, rotation.y, rotation.z];
+            Ok(Pose::new(translation.to_array(), q)?)
+        };
+        let (mut best, mut best_contact, mut queries) = (*from, at_start, 0u32);
+        for j in 1..=n {
+            let (lo, hi) = ((j - 1) as f64 / n as f64, j as f64 / n as f64);
+            let pose = at(hi)?;
+            let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
+            queries += 1;
+            if c.max_penetration <= limit {
+                (best, best_contact) = (pose, c);
+                continue;
+            }
+            // Too deep at `hi`, within the limit at `lo`: bisect.
+            let (mut ok, mut bad) = (lo, hi);
+            for _ in 0..BISECTIONS {
+                let mid = 0.5 * (ok + bad);
+                let pose = at(mid)?;
+                let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
+                queries += 1;
+                if c.max_penetration <= limit {
+                    ok = mid;
+                    (best, best_contact) = (pose, c);
+                } else {
+                    bad = mid;
+                }
+            }
+            return Ok((best, best_contact, ok * scale, queries));
+        }
+        Ok((best, best_contact, scale, queries))
+    }
+}
+
+/// The rotation vector (axis times angle, the angle in [0, π]) of unit quaternion `q`.
+fn rotation_vector(q: DQuat) -> DVec3 {
+    // q and −q are the same rotation: take the one with w ≥ 0, the shorter way round.
+    let q = if q.w < 0.0 { -q } else { q };
+    let v = DVec3::new(q.x, q.y, q.z);
+    let s = v.length();
+    if s < 1e-12 {
+        return v * 2.0;
+    }
+    v * (2.0 * s.atan2(q.w) / s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_vectors_round_trip() {
+        for v in [
+            DVec3::ZERO,
+            DVec3::new(0.3, -0.2, 0.1),
+            DVec3::new(0.0, 3.0, 0.0),
+            DVec3::new(1e-9, 0.0, 0.0),
+        ] {
+            let q = DQuat::from_scaled_axis(v);
+            assert!((rotation_vector(q) - v).length() < 1e-9, "{v}: {}", rotation_vector(q));
+            assert!((rotation_vector(-q) - v).length() < 1e-9, "−q, {v}");
+        }
+    }
+}
