@@ -79,6 +79,62 @@ pub fn cuboid(min: DVec3, max: DVec3) -> Vec<Triangle> {
         .collect()
 }
 
+/// Two outward-facing triangles of the quad `a b c d`, counter-clockwise seen from outside.
+fn quad(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> [Triangle; 2] {
+    [[a, b, c], [a, c, d]]
+}
+
+/// A closed cylinder along z, from `base` (the centre of its bottom disc) up `height`, with
+/// `segments` sides, outward-facing.
+pub fn cylinder(base: DVec3, radius: f64, height: f64, segments: u32) -> Vec<Triangle> {
+    let up = DVec3::Z * height;
+    let rim = |i: u32| {
+        let a = std::f64::consts::TAU * (i % segments) as f64 / segments as f64;
+        base + DVec3::new(a.cos(), a.sin(), 0.0) * radius
+    };
+    (0..segments)
+        .flat_map(|i| {
+            let (p, q) = (rim(i), rim(i + 1));
+            let [s0, s1] = quad(p, q, q + up, p + up);
+            [s0, s1, [base, q, p], [base + up, p + up, q + up]]
+        })
+        .collect()
+}
+
+/// A closed square plate `z0 ≤ z ≤ z1`, `|x|, |y| ≤ half_side` about `centre`, with a round
+/// hole of `hole_radius` through it along z, `segments` sides (a multiple of 8, so the rays
+/// through the hole's vertices meet the square's corners), outward-facing.
+pub fn plate_with_hole(
+    centre: DVec3,
+    half_side: f64,
+    z0: f64,
+    z1: f64,
+    hole_radius: f64,
+    segments: u32,
+) -> Vec<Triangle> {
+    let ray = |i: u32| {
+        let a = std::f64::consts::TAU * (i % segments) as f64 / segments as f64;
+        DVec3::new(a.cos(), a.sin(), 0.0)
+    };
+    let at = |xy: DVec3, z: f64| centre + DVec3::new(xy.x, xy.y, z);
+    let inner = |i: u32| ray(i) * hole_radius;
+    // Where the ray meets the square.
+    let outer = |i: u32| {
+        let r = ray(i);
+        r * (half_side / r.x.abs().max(r.y.abs()))
+    };
+    (0..segments)
+        .flat_map(|i| {
+            let (c0, c1, o0, o1) = (inner(i), inner(i + 1), outer(i), outer(i + 1));
+            let top = quad(at(c0, z1), at(o0, z1), at(o1, z1), at(c1, z1));
+            let bottom = quad(at(c0, z0), at(c1, z0), at(o1, z0), at(o0, z0));
+            let side = quad(at(o0, z0), at(o1, z0), at(o1, z1), at(o0, z1));
+            let hole = quad(at(c0, z0), at(c0, z1), at(c1, z1), at(c1, z0));
+            [top, bottom, side, hole].into_iter().flatten()
+        })
+        .collect()
+}
+
 /// A closed thin-walled hollow box: the outer box and, facing inward, an inner box `wall`
 /// smaller on every side. The air inside is enclosed by the wall.
 pub fn hollow_box(min: DVec3, max: DVec3, wall: f64) -> Vec<Triangle> {
@@ -218,5 +274,31 @@ mod tests {
         let r = sphere_rings(500.0, 0.02);
         let sag = 500.0 * (1.0 - (std::f64::consts::PI / r as f64).cos());
         assert!(sag <= 0.02 + 1e-9 && r <= 1024, "{r} {sag}");
+    }
+
+    /// Every edge used once in each direction (closed, consistently oriented), and the
+    /// volume by the divergence theorem positive (outward) and as computed by hand.
+    fn assert_closed_with_volume(tris: &[Triangle], volume: f64) {
+        let key = |p: DVec3| p.to_array().map(f64::to_bits);
+        let mut edges = std::collections::HashMap::new();
+        for t in tris {
+            for k in 0..3 {
+                *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &n) in &edges {
+            assert_eq!((n, edges.get(&(b, a))), (1, Some(&1)), "edge {a:?} {b:?}");
+        }
+        let v: f64 = tris.iter().map(|t| t[0].dot(t[1].cross(t[2])) / 6.0).sum();
+        assert!((v - volume).abs() < 1e-9 * volume, "{v} against {volume}");
+    }
+
+    #[test]
+    fn cylinders_and_plates_with_holes_are_closed_and_outward() {
+        let polygon = |r: f64, n: u32| 0.5 * n as f64 * r * r * (std::f64::consts::TAU / n as f64).sin();
+        let c = cylinder(DVec3::new(0.3, -0.2, 1.0), 0.4, 2.0, 24);
+        assert_closed_with_volume(&c, polygon(0.4, 24) * 2.0);
+        let p = plate_with_hole(DVec3::new(0.1, 0.2, 0.0), 3.0, -0.5, 0.5, 0.55, 32);
+        assert_closed_with_volume(&p, (36.0 - polygon(0.55, 32)) * 1.0);
     }
 }
