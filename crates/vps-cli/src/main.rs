@@ -53,6 +53,8 @@ enum Command {
     Contact(contact::ContactArgs),
     /// Replay a trajectory (or a built-in sweep into contact) and print query latency and throughput.
     HapticsBench(haptics_bench::HapticsBenchArgs),
+    /// Hold the pointshell's object through a virtual coupling along a device trajectory: forces, depth, step times.
+    Simulate(simulate::SimulateArgs),
     /// Scenes for tests and benchmarks: `vps scene synth` writes a reproducible car-scale OBJ.
     #[command(subcommand)]
     Scene(scene::SceneCommand),
@@ -113,6 +115,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench(args) => bench::run(args),
         Command::Contact(args) => contact::run(args),
         Command::HapticsBench(args) => haptics_bench::run(args),
+        Command::Simulate(args) => simulate::run(args),
         Command::Scene(command) => scene::run(command),
     }
 }

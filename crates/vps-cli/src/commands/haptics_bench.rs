@@ -18,7 +18,7 @@ use crate::args::{contact_params, PenetrationArg};
 use crate::inputs::{open_cached_voxmap, open_pointshell};
 
 mod builtin;
-mod figures;
+pub(crate) mod figures;
 mod report;
 mod tilted;
 

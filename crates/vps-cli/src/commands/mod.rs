@@ -10,6 +10,7 @@ pub mod info;
 pub mod pointshell;
 pub mod probe;
 pub mod scene;
+pub mod simulate;
 pub mod slice;
 pub mod verify;
 pub mod voxelize;
