@@ -48,6 +48,33 @@ impl PyContact {
     }
 }
 
+/// "distance" or "layers".
+pub(crate) fn penetration_of(name: &str) -> PyResult<Penetration> {
+    match name {
+        "distance" => Ok(Penetration::Distance),
+        "layers" => Ok(Penetration::Layers),
+        _ => Err(PyValueError::new_err(format!(
+            "penetration must be 'distance' or 'layers', got {name:?}"
+        ))),
+    }
+}
+
+/// A pose from `(tx, ty, tz)` or `(tx, ty, tz, qw, qx, qy, qz)`; the identity from `None`.
+pub(crate) fn pose_of(p: Option<&[f64]>) -> PyResult<Pose> {
+    match p {
+        None => Ok(Pose::IDENTITY),
+        Some(&[x, y, z]) => Pose::new([x, y, z], [1.0, 0.0, 0.0, 0.0]),
+        Some(&[x, y, z, w, i, j, k]) => Pose::new([x, y, z], [w, i, j, k]),
+        Some(p) => {
+            return Err(PyValueError::new_err(format!(
+                "pose must be (tx, ty, tz) or (tx, ty, tz, qw, qx, qy, qz), got {} numbers",
+                p.len()
+            )))
+        }
+    }
+    .map_err(|e| HapticsError::from(e).to_py())
+}
+
 /// Force and torque the voxmap exerts on the pointshell at `pose`: `(tx, ty, tz)` or
 /// `(tx, ty, tz, qw, qx, qy, qz)` (identity when `None`). `stiffness` is the force per unit of
 /// penetration per point; `budget_seconds`, when given, bounds the time of the query;
@@ -64,27 +91,8 @@ pub(crate) fn contact(
     budget_seconds: Option<f64>,
     penetration: &str,
 ) -> PyResult<PyContact> {
-    let penetration = match penetration {
-        "distance" => Penetration::Distance,
-        "layers" => Penetration::Layers,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "penetration must be 'distance' or 'layers', got {penetration:?}"
-            )))
-        }
-    };
-    let pose = match pose.as_deref() {
-        None => Ok(Pose::IDENTITY),
-        Some(&[x, y, z]) => Pose::new([x, y, z], [1.0, 0.0, 0.0, 0.0]),
-        Some(&[x, y, z, w, i, j, k]) => Pose::new([x, y, z], [w, i, j, k]),
-        Some(p) => {
-            return Err(PyValueError::new_err(format!(
-                "pose must be (tx, ty, tz) or (tx, ty, tz, qw, qx, qy, qz), got {} numbers",
-                p.len()
-            )))
-        }
-    }
-    .map_err(|e| HapticsError::from(e).to_py())?;
+    let penetration = penetration_of(penetration)?;
+    let pose = pose_of(pose.as_deref())?;
     let budget = match budget_seconds {
         Some(s) if !(s.is_finite() && s >= 0.0) => {
             return Err(PyValueError::new_err(format!(

@@ -9,6 +9,7 @@ mod contact;
 mod errors;
 mod mesh;
 mod pointshell;
+mod simulation;
 mod voxmap;
 
 use pyo3::prelude::*;
@@ -27,6 +28,8 @@ fn _vps(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<voxmap::PyVoxmap>()?;
     m.add_class::<pointshell::PyPointshell>()?;
     m.add_class::<contact::PyContact>()?;
+    m.add_class::<simulation::PySimulation>()?;
+    m.add_class::<simulation::PyStep>()?;
     m.add_function(wrap_pyfunction!(voxmap::voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(pointshell::pointshell, m)?)?;
     m.add_function(wrap_pyfunction!(contact::contact, m)?)?;

@@ -163,6 +163,36 @@ def test_contact_interpolates_the_distances_of_a_voxmap_that_has_them(tmp_path):
         vps.contact(wall, shell, pose, penetration="deep")
 
 
+def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_vps):
+    # A wall 2 voxels thick, the device pushed through it at 10 voxels per step and held
+    # beyond: the object stays on the near side, the device is pulled back; the same from a
+    # file (mapped) and from the command line, bit for bit.
+    wv, wt = box((0.0, -2.0, -2.0), (2 * SIZE, 2.0, 2.0))
+    wall = vps.voxelize(vps.Mesh(wv, wt), SIZE, distances=True)
+    shell = vps.pointshell(vps.Mesh(*sphere(radius=0.5)), voxel_size=SIZE / 2)
+    device = [(min(-1.0 + i * 10 * SIZE, 3.0), 0.0, 0.0, 1.0, 0.0, 0.0, 0.0) for i in range(80)]
+    sim = vps.Simulation(wall, shell, device[0])
+    steps = [sim.step(p) for p in device]
+    for s in steps:
+        deepest = s.pose[0] + 0.5  # the ball's radius
+        assert deepest < SIZE, s
+        assert s.max_penetration <= 0.25 * SIZE + 1e-12
+    assert any(s.limited for s in steps)
+    assert steps[-1].device_force[0] < 0 and steps[-1].contact_force[0] < 0
+    assert sim.pose == steps[-1].pose
+    wall.write(tmp_path / "wall.vxm")
+    shell.write(tmp_path / "ball.vps")
+    mapped = vps.Simulation(vps.Voxmap.open(tmp_path / "wall.vxm"), vps.Pointshell.open(tmp_path / "ball.vps"), device[0])
+    assert [mapped.step(p).device_force for p in device] == [s.device_force for s in steps]
+    (tmp_path / "hand.txt").write_text("".join(" ".join(map(repr, p)) + "\n" for p in device))
+    out = run_vps("simulate", tmp_path / "wall.vxm", tmp_path / "ball.vps", "--device", tmp_path / "hand.txt", "--json")
+    assert json.loads(out.stdout)["final_pose"]["translation"] == list(steps[-1].pose[:3])
+    with pytest.raises(ValueError, match="mass"):
+        vps.Simulation(wall, shell, device[0], mass=0.0)
+    with pytest.raises(vps.HapticsError, match="deep"):
+        vps.Simulation(wall, shell, (0.1, 0.0, 0.0))  # starts inside the wall
+
+
 def test_errors_carry_the_library_messages(tmp_path, run_vps):
     missing = tmp_path / "missing.vxm"
     with pytest.raises(vps.StorageError) as e:

@@ -115,6 +115,42 @@ class Contact:
     def __iter__(self) -> Iterator[object]:
         """Unpacks as (force, torque, points_in_contact)."""
 
+class SimulationStep:
+    """What one step of a Simulation did, in the voxmap's world frame."""
+
+    pose: Tuple[float, float, float, float, float, float, float]
+    device_force: Tuple[float, float, float]
+    device_torque: Tuple[float, float, float]
+    contact_force: Tuple[float, float, float]
+    points_in_contact: int
+    max_penetration: float
+    limited: bool
+    queries: int
+    kinetic_energy: float
+    coupling_energy: float
+    micros: float
+
+class Simulation:
+    """The haptic loop: a simulated copy of the shell's object held through a virtual
+    coupling, never passing through the voxmap's object (docs/HAPTICS.md)."""
+
+    def __init__(
+        self,
+        voxmap: Voxmap,
+        shell: Pointshell,
+        start_pose: Sequence[float],
+        *,
+        mass: float = 1.0,
+        coupling: Optional[Tuple[float, float]] = None,
+        stiffness: Optional[float] = None,
+        max_penetration: float = 0.25,
+        penetration: Literal["distance", "layers"] = "distance",
+    ) -> None: ...
+    def step(self, device_pose: Sequence[float]) -> SimulationStep:
+        """One 1 ms step towards the device pose; render the returned device_force."""
+    @property
+    def pose(self) -> Tuple[float, float, float, float, float, float, float]: ...
+
 def voxelize(
     mesh: Mesh,
     voxel_size: float,

@@ -125,6 +125,56 @@ typedef struct vps_contact_params {
 int vps_contact_with_params(const vps_voxmap *voxmap, const vps_pointshell *pointshell, const double pose[7],
                             const vps_contact_params *params, vps_contact_result *out, char *err, size_t err_len);
 
+/*
+ * The haptic loop (docs/HAPTICS.md, "The haptic loop"; docs/C_ABI.md has a device callback).
+ * A simulated copy of the pointshell's object follows the device through a virtual coupling
+ * and never passes through the voxmap's object; each step returns the force to render.
+ * A simulation borrows its voxmap and pointshell handles: close them only after
+ * vps_simulation_free. Step it from one thread at a time (the device callback's).
+ */
+typedef struct vps_simulation vps_simulation;
+
+/* Parameters of vps_simulation_new; a field left 0 takes its default. */
+typedef struct vps_simulation_params {
+    double mass;               /* of the held object (default 1); its inertia is its shell's */
+    double coupling_stiffness; /* linear; default mass * (0.2 / 1 ms)^2, a 32 Hz spring */
+    double coupling_damping;   /* linear; default critical for the stiffness */
+    double contact_stiffness;  /* per point in contact; default the coupling's stiffness */
+    double max_penetration;    /* deepest a point may go, voxels of the voxmap; default 0.25 */
+    int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
+    int32_t reserved;          /* must be 0 */
+} vps_simulation_params;
+
+/* What one step did. World frame. */
+typedef struct vps_simulation_step_result {
+    double pose[7];            /* the object's pose after the step, {tx, ty, tz, qw, qx, qy, qz} */
+    double device_force[3];    /* the force to render on the device */
+    double device_torque[3];   /* the torque to render, about the object's centre of mass */
+    double contact_force[3];   /* the contact force on the object at its new pose */
+    double max_penetration;    /* deepest point, world units */
+    double micros;             /* wall time of the step */
+    uint64_t points_in_contact;
+    uint32_t queries;          /* contact queries the step ran */
+    int32_t limited;           /* 1: stopped short to keep within max_penetration */
+} vps_simulation_step_result;
+
+/*
+ * A simulation of pointshell's object at rest at start_pose (7 doubles, as vps_contact's
+ * pose), or NULL with a message in err (a NULL argument, a bad parameter, a start pose deeper
+ * than max_penetration, ...). Free it with vps_simulation_free.
+ */
+vps_simulation *vps_simulation_new(const vps_voxmap *voxmap, const vps_pointshell *pointshell,
+                                   const vps_simulation_params *params, const double start_pose[7], char *err,
+                                   size_t err_len);
+
+/* One 1 ms step towards the device at device_pose. Returns VPS_OK and fills out, or a
+ * VPS_ERR_* code with a message in err (the simulation is then unchanged). */
+int vps_simulation_step(vps_simulation *simulation, const double device_pose[7], vps_simulation_step_result *out,
+                        char *err, size_t err_len);
+
+/* Free a simulation. NULL is a no-op. */
+void vps_simulation_free(vps_simulation *simulation);
+
 /* The library's version, e.g. "0.1.0": a static string, never to be freed. */
 const char *vps_version(void);
 

@@ -19,6 +19,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use vps::haptics::{HapticsError, Penetration};
+
+mod simulation;
+pub use simulation::*;
 use vps::{contact, CachedVoxmap, ContactParams, PointshellFile, Pose};
 
 /// Success.
@@ -329,7 +332,7 @@ pub unsafe extern "C" fn vps_contact_with_params(
     err_len: usize,
 ) -> c_int {
     let err = ErrBuf { ptr: err, len: err_len };
-    let result = catch_unwind(AssertUnwindSafe(|| -> Result<(), (c_int, String)> {
+    guard_code(err, || {
         for (name, null) in [
             ("voxmap", voxmap.is_null()),
             ("pointshell", pointshell.is_null()),
@@ -351,27 +354,34 @@ pub unsafe extern "C" fn vps_contact_with_params(
         let pose =
             Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))?;
         let params = contact_params(&params).map_err(|m| (VPS_ERR_PARAM, m))?;
-        let c = contact(voxmap, shell, &pose, &params).map_err(|e| {
-            let code = match e {
-                HapticsError::Storage(_) => VPS_ERR_STORAGE,
-                HapticsError::Pose(_) => VPS_ERR_POSE,
-                HapticsError::Params(_) => VPS_ERR_PARAM,
-            };
-            (code, e.to_string())
-        })?;
+        let c = contact(voxmap, shell, &pose, &params).map_err(|e| (code_of(&e), e.to_string()))?;
         // SAFETY: not NULL, and the header requires `out` to point to a writable `vps_contact_result`;
         // an unaligned write asks nothing more.
         unsafe { out.write_unaligned(VpsContactResult::from(&c)) };
         Ok(())
-    }));
-    let (code, msg) = match result {
+    })
+}
+
+/// Run `body` so that no panic crosses the boundary, for a function that returns a code: its
+/// error's code and message, [`VPS_ERR_INTERNAL`] for a panic, or [`VPS_OK`] with `err`
+/// cleared, so a caller never reads a stale message.
+fn guard_code(err: ErrBuf, body: impl FnOnce() -> Result<(), (c_int, String)>) -> c_int {
+    let (code, msg) = match catch_unwind(AssertUnwindSafe(body)) {
         Ok(Ok(())) => (VPS_OK, String::new()),
         Ok(Err(e)) => e,
         Err(payload) => (VPS_ERR_INTERNAL, panic_message(payload.as_ref())),
     };
-    // Success leaves an empty message, so a caller never reads a stale one.
     err.write(&msg);
     code
+}
+
+/// The return code of a query's error.
+fn code_of(e: &HapticsError) -> c_int {
+    match e {
+        HapticsError::Storage(_) => VPS_ERR_STORAGE,
+        HapticsError::Pose(_) => VPS_ERR_POSE,
+        HapticsError::Params(_) => VPS_ERR_PARAM,
+    }
 }
 
 /// The library's parameters for C's, or what is wrong with them (the stiffness is checked by

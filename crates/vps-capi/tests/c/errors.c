@@ -55,6 +55,11 @@ int main(int argc, char **argv) {
     printf("params %zu %zu %zu %zu %zu %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
            offsetof(vps_contact_params, budget_us), offsetof(vps_contact_params, penetration),
            offsetof(vps_contact_params, reserved), VPS_PENETRATION_DISTANCE, VPS_PENETRATION_LAYERS);
+    printf("simulation %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_simulation_params),
+           offsetof(vps_simulation_params, max_penetration), offsetof(vps_simulation_params, penetration),
+           sizeof(vps_simulation_step_result), offsetof(vps_simulation_step_result, device_force),
+           offsetof(vps_simulation_step_result, contact_force), offsetof(vps_simulation_step_result, points_in_contact),
+           offsetof(vps_simulation_step_result, queries), offsetof(vps_simulation_step_result, limited));
     printf("version %s\n", vps_version());
 
     /* Version. */
@@ -166,6 +171,34 @@ int main(int argc, char **argv) {
     CHECK(vps_contact_with_params(vm, ps, id, &params, &out, err, sizeof err) == VPS_ERR_PARAM);
     CHECK(strstr(err, "reserved") != NULL);
     CHECK(untouched(&out));
+
+    /* The haptic loop's errors: NULLs, bad parameters, a start too deep; free(NULL) is fine. */
+    vps_simulation_params sp = {0};
+    const double far_pose[7] = {10, 10, 10, 1, 0, 0, 0};
+    CHECK(vps_simulation_new(vm, ps, NULL, far_pose, err, sizeof err) == NULL);
+    CHECK(strcmp(err, "params is NULL") == 0);
+    CHECK(vps_simulation_new(NULL, ps, &sp, far_pose, err, sizeof err) == NULL);
+    CHECK(strcmp(err, "voxmap is NULL") == 0);
+    sp.mass = -1;
+    CHECK(vps_simulation_new(vm, ps, &sp, far_pose, err, sizeof err) == NULL);
+    CHECK(strstr(err, "mass") != NULL);
+    sp.mass = 0;
+    sp.penetration = 7;
+    CHECK(vps_simulation_new(vm, ps, &sp, far_pose, err, sizeof err) == NULL);
+    CHECK(strstr(err, "penetration 7") != NULL);
+    sp.penetration = 0;
+    CHECK(vps_simulation_new(vm, ps, &sp, id, err, sizeof err) == NULL); /* starts deep inside */
+    CHECK(strstr(err, "deep") != NULL);
+    vps_simulation *sim = vps_simulation_new(vm, ps, &sp, far_pose, err, sizeof err);
+    CHECK(sim != NULL && err[0] == '\0');
+    vps_simulation_step_result sr;
+    CHECK(vps_simulation_step(NULL, far_pose, &sr, err, sizeof err) == VPS_ERR_NULL);
+    CHECK(strcmp(err, "simulation is NULL") == 0);
+    CHECK(vps_simulation_step(sim, zero_q, &sr, err, sizeof err) == VPS_ERR_POSE);
+    CHECK(vps_simulation_step(sim, far_pose, &sr, err, sizeof err) == VPS_OK);
+    CHECK(sr.points_in_contact == 0 && sr.limited == 0 && sr.device_force[0] == 0);
+    vps_simulation_free(sim);
+    vps_simulation_free(NULL);
 
     /* Time-critical: a generous budget is exact; a tiny one still answers, with bounds. */
     CHECK(vps_contact(vm, ps, id, 2, 1e9, &b, err, sizeof err) == VPS_OK);

@@ -60,6 +60,22 @@ fn d_the_header_matches_the_rust_side() {
         ],
         "vps_contact_params and the penetration codes in C vs Rust"
     );
+    let simulation: Vec<usize> = line("simulation ").iter().map(|x| x.parse().unwrap()).collect();
+    assert_eq!(
+        simulation,
+        [
+            size_of::<ffi::VpsSimulationParams>(),
+            offset_of!(ffi::VpsSimulationParams, max_penetration),
+            offset_of!(ffi::VpsSimulationParams, penetration),
+            size_of::<ffi::VpsSimulationStep>(),
+            offset_of!(ffi::VpsSimulationStep, device_force),
+            offset_of!(ffi::VpsSimulationStep, contact_force),
+            offset_of!(ffi::VpsSimulationStep, points_in_contact),
+            offset_of!(ffi::VpsSimulationStep, queries),
+            offset_of!(ffi::VpsSimulationStep, limited),
+        ],
+        "the simulation's structs in C vs Rust"
+    );
     let codes: Vec<i32> = line("codes ").iter().map(|x| x.parse().unwrap()).collect();
     assert_eq!(
         codes,

@@ -14,6 +14,7 @@
 mod errors;
 mod replacing;
 mod same_bits;
+mod simulation;
 
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
@@ -45,6 +46,7 @@ pub(crate) struct Programs {
     lib: PathBuf,
     contact: PathBuf,
     errors: PathBuf,
+    simulate: PathBuf,
 }
 
 /// The directory holding the `libvps_capi` cdylib built with this test: next to the test executable
@@ -120,6 +122,7 @@ pub(crate) fn programs() -> &'static Programs {
         Programs {
             contact: compile("contact", &lib, &out_dir),
             errors: compile("errors", &lib, &out_dir),
+            simulate: compile("simulate", &lib, &out_dir),
             lib,
         }
     })

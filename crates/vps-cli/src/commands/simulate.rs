@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::json;
 
-use vps::haptics::simulation::{MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step};
 use vps::haptics::trajectory::read_trajectory;
 use vps::Pose;
 
@@ -86,11 +86,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let body = MassProperties::of_shell(&shell, a.mass);
     let mut params = SimulationParams::for_body(&body);
     if let Some((k, b)) = a.coupling {
-        let rho2 = body.radius_of_gyration().powi(2);
-        params.coupling.stiffness = k;
-        params.coupling.damping = b;
-        params.coupling.angular_stiffness = k * rho2;
-        params.coupling.angular_damping = b * rho2;
+        params.coupling = Coupling::from_linear(k, b, &body);
         params.contact.stiffness = k;
     }
     if let Some(k) = a.stiffness {

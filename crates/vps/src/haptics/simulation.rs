@@ -121,6 +121,20 @@ impl Coupling {
     }
 }
 
+impl Coupling {
+    /// A coupling of linear `stiffness` and `damping` for `body`, the angular ones those at
+    /// its radius of gyration (`ρ²` times), as [`Coupling::for_body`] scales them.
+    pub fn from_linear(stiffness: f64, damping: f64, body: &MassProperties) -> Coupling {
+        let rho2 = body.radius_of_gyration().powi(2);
+        Coupling {
+            stiffness,
+            damping,
+            angular_stiffness: stiffness * rho2,
+            angular_damping: damping * rho2,
+        }
+    }
+}
+
 /// What a [`Simulation`] needs besides the objects.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimulationParams {
@@ -296,7 +310,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
     }
 
     /// One step towards the device at `device` (a pose of the pointshell's frame, as the
-    /// object's).
+    /// object's). On an error (a brick of the voxmap's file that cannot be read) the
+    /// simulation is left as it was.
     pub fn step(&mut self, device: &Pose) -> Result<Step, HapticsError> {
         let started = Instant::now();
         let device = Pose::new(device.translation.to_array(), {
@@ -313,7 +328,6 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             ),
             None => (DVec3::ZERO, DVec3::ZERO),
         };
-        self.device_before = Some((device_centre, device.rotation));
 
         let s = self.state;
         let (offset, turn) = self.offsets(&device);
@@ -360,6 +374,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             }
         };
         self.contact = contact;
+        // Only now: a step that fails leaves the simulation as it was.
+        self.device_before = Some((device_centre, device.rotation));
 
         let (offset, turn) = self.offsets(&device);
         let st = self.state;

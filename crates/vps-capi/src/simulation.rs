@@ -1,0 +1,255 @@
+//! The haptic loop in C: `vps_simulation` over [`Simulation`], one step per device sample.
+//!
+//! A simulation borrows the voxmap and pointshell handles it was made with; the header requires
+//! them to stay open until the simulation is freed. A simulation is stepped from one thread at
+//! a time (the device callback's).
+
+use std::ffi::{c_char, c_double, c_int};
+
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams};
+use vps::{PointshellFile, Pose};
+
+use super::*;
+
+/// `vps_simulation_params` in C. Zero asks for the default of a field (see the header).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VpsSimulationParams {
+    /// Mass of the held object; 0: 1.
+    pub mass: c_double,
+    /// The coupling's linear stiffness; 0: the default for the mass.
+    pub coupling_stiffness: c_double,
+    /// The coupling's linear damping; 0: critical for the stiffness.
+    pub coupling_damping: c_double,
+    /// Contact stiffness per point; 0: the coupling's stiffness.
+    pub contact_stiffness: c_double,
+    /// The deepest a point may go, in voxels of the voxmap; 0: ¼.
+    pub max_penetration: c_double,
+    /// `VPS_PENETRATION_DISTANCE` or `VPS_PENETRATION_LAYERS`.
+    pub penetration: i32,
+    /// Must be 0.
+    pub reserved: i32,
+}
+
+/// `vps_simulation_step_result` in C: what one step did.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VpsSimulationStep {
+    /// The object's pose after the step, `tx ty tz qw qx qy qz`.
+    pub pose: [c_double; 7],
+    /// The force to render on the device.
+    pub device_force: [c_double; 3],
+    /// The torque to render on the device, about its centre of mass.
+    pub device_torque: [c_double; 3],
+    /// The contact force on the object at its new pose.
+    pub contact_force: [c_double; 3],
+    /// The deepest point, world units.
+    pub max_penetration: c_double,
+    /// Wall time of the step, microseconds.
+    pub micros: c_double,
+    /// Points in contact at the new pose.
+    pub points_in_contact: u64,
+    /// Contact queries the step ran.
+    pub queries: u32,
+    /// 1 when the advancement stopped short to keep within the allowed depth.
+    pub limited: i32,
+}
+
+/// `vps_simulation` in C.
+pub struct VpsSimulation {
+    inner: Simulation<'static, PointshellFile>,
+}
+
+/// The library's parameters for C's, or what is wrong with them.
+fn simulation_params(
+    p: &VpsSimulationParams,
+    shell: &PointshellFile,
+) -> Result<(MassProperties, SimulationParams), String> {
+    let mass = if p.mass == 0.0 { 1.0 } else { p.mass };
+    if !(mass.is_finite() && mass > 0.0) {
+        return Err(format!("mass must be > 0, got {}", p.mass));
+    }
+    if shell.points().is_empty() {
+        return Err("the pointshell has no points".to_string());
+    }
+    let body = MassProperties::of_shell(shell, mass);
+    let mut params = SimulationParams::for_body(&body);
+    let contact = contact_params(&VpsContactParams {
+        stiffness: 0.0,
+        budget_us: 0.0,
+        penetration: p.penetration,
+        reserved: p.reserved,
+    })?;
+    params.contact.penetration = contact.penetration;
+    for (name, v) in [
+        ("coupling_stiffness", p.coupling_stiffness),
+        ("coupling_damping", p.coupling_damping),
+        ("contact_stiffness", p.contact_stiffness),
+        ("max_penetration", p.max_penetration),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(format!("{name} must be >= 0 (0 for the default), got {v}"));
+        }
+    }
+    if p.coupling_stiffness > 0.0 || p.coupling_damping > 0.0 {
+        let k = if p.coupling_stiffness > 0.0 {
+            p.coupling_stiffness
+        } else {
+            params.coupling.stiffness
+        };
+        let b = if p.coupling_damping > 0.0 {
+            p.coupling_damping
+        } else {
+            2.0 * (k * mass).sqrt()
+        };
+        params.coupling = Coupling::from_linear(k, b, &body);
+        params.contact.stiffness = k;
+    }
+    if p.contact_stiffness > 0.0 {
+        params.contact.stiffness = p.contact_stiffness;
+    }
+    if p.max_penetration > 0.0 {
+        params.max_penetration = p.max_penetration;
+    }
+    Ok((body, params))
+}
+
+/// Read a pose of 7 doubles.
+///
+/// # Safety
+/// `pose` must point to 7 readable doubles.
+unsafe fn read_pose(pose: *const c_double) -> Result<Pose, (c_int, String)> {
+    // SAFETY: the caller's promise; an unaligned read asks nothing more.
+    let p: [f64; 7] = unsafe { pose.cast::<[f64; 7]>().read_unaligned() };
+    Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))
+}
+
+/// A simulated copy of `pointshell`'s object at rest at `start_pose`, held through a virtual
+/// coupling, in contact with `voxmap`; NULL with a message in `err` when it cannot be made.
+///
+/// # Safety
+/// `voxmap` and `pointshell` must be NULL or open handles, and stay open until the simulation
+/// is freed; `params` NULL or a readable `vps_simulation_params`; `start_pose` NULL or 7
+/// readable doubles; `err` NULL or `err_len` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn vps_simulation_new(
+    voxmap: *const VpsVoxmap,
+    pointshell: *const VpsPointshell,
+    params: *const VpsSimulationParams,
+    start_pose: *const c_double,
+    err: *mut c_char,
+    err_len: usize,
+) -> *mut VpsSimulation {
+    let err = ErrBuf { ptr: err, len: err_len };
+    guard(err, std::ptr::null_mut(), || {
+        for (name, null) in [
+            ("voxmap", voxmap.is_null()),
+            ("pointshell", pointshell.is_null()),
+            ("params", params.is_null()),
+            ("start_pose", start_pose.is_null()),
+        ] {
+            if null {
+                return Err(format!("{name} is NULL"));
+            }
+        }
+        // SAFETY: not NULL, and the header requires open handles that outlive the simulation,
+        // so the borrows may be given the simulation's whole life ('static, ended by
+        // `vps_simulation_free` before the caller closes them). They are only read.
+        let (voxmap, shell): (&'static CachedVoxmap, &'static PointshellFile) =
+            unsafe { (&(*voxmap).inner, &(*pointshell).inner) };
+        // SAFETY: not NULL, and the header requires a readable struct; unaligned is fine.
+        let p = unsafe { params.read_unaligned() };
+        // SAFETY: not NULL, and the header requires 7 readable doubles.
+        let start = unsafe { read_pose(start_pose) }.map_err(|(_, m)| m)?;
+        let (body, params) = simulation_params(&p, shell)?;
+        let inner = Simulation::new(voxmap, shell, body, params, start).map_err(|e| e.to_string())?;
+        Ok(into_handle(VpsSimulation { inner }))
+    })
+}
+
+/// One step towards the device at `device_pose`: fills `out` and returns [`VPS_OK`], or an
+/// error code with a message in `err` (then the simulation is unchanged).
+///
+/// # Safety
+/// `simulation` must be NULL or a live simulation no other thread is stepping; `device_pose`
+/// NULL or 7 readable doubles; `out` NULL or a writable `vps_simulation_step_result`; `err`
+/// NULL or `err_len` writable bytes.
+#[no_mangle]
+pub unsafe extern "C" fn vps_simulation_step(
+    simulation: *mut VpsSimulation,
+    device_pose: *const c_double,
+    out: *mut VpsSimulationStep,
+    err: *mut c_char,
+    err_len: usize,
+) -> c_int {
+    let err = ErrBuf { ptr: err, len: err_len };
+    guard_code(err, || {
+        for (name, null) in [
+            ("simulation", simulation.is_null()),
+            ("device_pose", device_pose.is_null()),
+            ("out", out.is_null()),
+        ] {
+            if null {
+                return Err((VPS_ERR_NULL, format!("{name} is NULL")));
+            }
+        }
+        // SAFETY: not NULL, and the header requires 7 readable doubles.
+        let device = unsafe { read_pose(device_pose) }?;
+        // SAFETY: not NULL, and the header requires a live simulation that no other thread
+        // steps at the same time: this is the only reference to it for the call.
+        let sim = unsafe { &mut (*simulation).inner };
+        let s = sim.step(&device).map_err(|e| (code_of(&e), e.to_string()))?;
+        let (t, q) = (s.pose.translation, s.pose.rotation);
+        let result = VpsSimulationStep {
+            pose: [t.x, t.y, t.z, q.w, q.x, q.y, q.z],
+            device_force: s.device_force.to_array(),
+            device_torque: s.device_torque.to_array(),
+            contact_force: s.contact.force.to_array(),
+            max_penetration: s.contact.max_penetration,
+            micros: s.micros,
+            points_in_contact: s.contact.points_in_contact,
+            queries: s.queries,
+            limited: s.limited as i32,
+        };
+        // SAFETY: not NULL, and the header requires a writable struct; unaligned is fine.
+        unsafe { out.write_unaligned(result) };
+        Ok(())
+    })
+}
+
+/// Free a simulation. NULL is a no-op.
+///
+/// # Safety
+/// `simulation` must be NULL or a simulation from [`vps_simulation_new`] not yet freed, which
+/// no other thread is using.
+#[no_mangle]
+pub unsafe extern "C" fn vps_simulation_free(simulation: *mut VpsSimulation) {
+    if simulation.is_null() {
+        return;
+    }
+    // SAFETY: the header requires a live simulation from `vps_simulation_new` (a `Box` turned
+    // into a raw pointer), freed once; nothing else uses it.
+    let result = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(simulation) })));
+    // Dropping frees memory only; a panic there has nowhere to be reported.
+    let _ = result;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn layouts_are_the_headers() {
+        assert_eq!(offset_of!(VpsSimulationParams, max_penetration), 32);
+        assert_eq!(offset_of!(VpsSimulationParams, penetration), 40);
+        assert_eq!(size_of::<VpsSimulationParams>(), 48);
+        assert_eq!(offset_of!(VpsSimulationStep, device_force), 56);
+        assert_eq!(offset_of!(VpsSimulationStep, contact_force), 104);
+        assert_eq!(offset_of!(VpsSimulationStep, max_penetration), 128);
+        assert_eq!(offset_of!(VpsSimulationStep, points_in_contact), 144);
+        assert_eq!(offset_of!(VpsSimulationStep, queries), 152);
+        assert_eq!(offset_of!(VpsSimulationStep, limited), 156);
+        assert_eq!(size_of::<VpsSimulationStep>(), 160);
+    }
+}

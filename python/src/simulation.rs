@@ -1,0 +1,194 @@
+//! `vps.Simulation`: the haptic loop, one `step(device_pose)` per device sample
+//! (docs/HAPTICS.md, "The haptic loop").
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step};
+use vps::{CachedVoxmap, Pointshell, PointshellData, PointshellFile, Pose};
+
+use crate::contact::{penetration_of, pose_of};
+use crate::errors::OrRaise;
+use crate::pointshell::{PyPointshell, ShellData};
+use crate::voxmap::PyVoxmap;
+
+/// The library's simulation over a pointshell in memory or mapped.
+enum Sim {
+    Memory(Simulation<'static, Pointshell>),
+    File(Simulation<'static, PointshellFile>),
+}
+
+/// A simulated copy of `shell`'s object held through a virtual coupling, in contact with
+/// `voxmap`: call `step(device_pose)` once per device sample (1 ms) and render the returned
+/// `device_force` and `device_torque`. It never passes through the voxmap's object.
+#[pyclass(module = "vps", name = "Simulation")]
+pub(crate) struct PySimulation {
+    // Declared first, so dropped first: it borrows the two objects below.
+    sim: Sim,
+    _voxmap: Py<PyVoxmap>,
+    _shell: Py<PyPointshell>,
+}
+
+/// What one step did; vectors in the voxmap's world frame.
+#[pyclass(module = "vps", name = "SimulationStep", frozen, get_all)]
+pub(crate) struct PyStep {
+    /// The object's pose after the step, `(tx, ty, tz, qw, qx, qy, qz)`.
+    pose: [f64; 7],
+    /// The force to render on the device.
+    device_force: [f64; 3],
+    /// The torque to render on the device, about the object's centre of mass.
+    device_torque: [f64; 3],
+    /// The contact force on the object at its new pose.
+    contact_force: [f64; 3],
+    /// Points in contact at the new pose.
+    points_in_contact: u64,
+    /// The deepest point, world units.
+    max_penetration: f64,
+    /// Whether the object stopped short to keep within the allowed depth.
+    limited: bool,
+    /// Contact queries the step ran.
+    queries: u32,
+    /// Kinetic energy after the step.
+    kinetic_energy: f64,
+    /// Energy in the coupling's springs after the step.
+    coupling_energy: f64,
+    /// Wall time of the step, microseconds.
+    micros: f64,
+}
+
+impl From<Step> for PyStep {
+    fn from(s: Step) -> PyStep {
+        let (t, q) = (s.pose.translation, s.pose.rotation);
+        PyStep {
+            pose: [t.x, t.y, t.z, q.w, q.x, q.y, q.z],
+            device_force: s.device_force.to_array(),
+            device_torque: s.device_torque.to_array(),
+            contact_force: s.contact.force.to_array(),
+            points_in_contact: s.contact.points_in_contact,
+            max_penetration: s.contact.max_penetration,
+            limited: s.limited,
+            queries: s.queries,
+            kinetic_energy: s.kinetic_energy,
+            coupling_energy: s.coupling_energy,
+            micros: s.micros,
+        }
+    }
+}
+
+#[pymethods]
+impl PyStep {
+    fn __repr__(&self) -> String {
+        format!(
+            "SimulationStep(device_force={:?}, points_in_contact={}, max_penetration={}, limited={})",
+            self.device_force, self.points_in_contact, self.max_penetration, self.limited
+        )
+    }
+}
+
+/// The simulation of `shell`'s object of `mass` at `start`, with the parameters `configure`
+/// makes for its body.
+fn start_on<S: PointshellData + ?Sized>(
+    py: Python<'_>,
+    voxmap: &'static CachedVoxmap,
+    shell: &'static S,
+    mass: f64,
+    start: Pose,
+    configure: impl FnOnce(&MassProperties) -> PyResult<SimulationParams>,
+) -> PyResult<Simulation<'static, S>> {
+    if shell.points().is_empty() {
+        return Err(PyValueError::new_err("the pointshell has no points"));
+    }
+    let body = MassProperties::of_shell(shell, mass);
+    let params = configure(&body)?;
+    py.detach(|| Simulation::new(voxmap, shell, body, params, start))
+        .or_raise()
+}
+
+#[pymethods]
+impl PySimulation {
+    /// The object at rest at `start_pose`. `mass` (its inertia is its shell's); `coupling`,
+    /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
+    /// mass, critically damped); `stiffness`, the contact's per point (default: the
+    /// coupling's); `max_penetration`, in voxels of the voxmap.
+    #[new]
+    #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        voxmap: Py<PyVoxmap>,
+        shell: Py<PyPointshell>,
+        start_pose: Vec<f64>,
+        mass: f64,
+        coupling: Option<(f64, f64)>,
+        stiffness: Option<f64>,
+        max_penetration: f64,
+        penetration: &str,
+    ) -> PyResult<PySimulation> {
+        let start = pose_of(Some(&start_pose))?;
+        let penetration = penetration_of(penetration)?;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(PyValueError::new_err(format!("mass must be > 0, got {mass}")));
+        }
+        // SAFETY: both classes are frozen, so `get` gives a shared reference to data that
+        // never moves (it lives in the Python object) and never changes. The references are
+        // given the simulation's life: `sim` is dropped before the two `Py` fields that keep
+        // the objects alive (fields drop in declaration order).
+        let (vm, sh): (&'static PyVoxmap, &'static PyPointshell) = unsafe {
+            (
+                &*(voxmap.get() as *const PyVoxmap),
+                &*(shell.get() as *const PyPointshell),
+            )
+        };
+        let configure = |body: &MassProperties| -> PyResult<SimulationParams> {
+            let mut params = SimulationParams::for_body(body);
+            if let Some((k, b)) = coupling {
+                if !(k.is_finite() && b.is_finite() && k >= 0.0 && b >= 0.0) {
+                    return Err(PyValueError::new_err(format!(
+                        "coupling must be (K, B) >= 0, got ({k}, {b})"
+                    )));
+                }
+                params.coupling = Coupling::from_linear(k, b, body);
+                params.contact.stiffness = k;
+            }
+            if let Some(k) = stiffness {
+                params.contact.stiffness = k;
+            }
+            params.contact.penetration = penetration;
+            params.max_penetration = max_penetration;
+            Ok(params)
+        };
+        let sim = match &sh.data {
+            ShellData::Memory(m) => Sim::Memory(start_on(py, &vm.data, m, mass, start, configure)?),
+            ShellData::File(f) => Sim::File(start_on(py, &vm.data, f, mass, start, configure)?),
+        };
+        Ok(PySimulation {
+            sim,
+            _voxmap: voxmap,
+            _shell: shell,
+        })
+    }
+
+    /// One step towards the device at `device_pose`, `(tx, ty, tz)` or `(tx, ty, tz, qw, qx,
+    /// qy, qz)`; the GIL is released meanwhile.
+    fn step(&mut self, py: Python<'_>, device_pose: Vec<f64>) -> PyResult<PyStep> {
+        let device: Pose = pose_of(Some(&device_pose))?;
+        let sim = &mut self.sim;
+        let step = py
+            .detach(|| match sim {
+                Sim::Memory(s) => s.step(&device),
+                Sim::File(s) => s.step(&device),
+            })
+            .or_raise()?;
+        Ok(step.into())
+    }
+
+    /// The object's pose, `(tx, ty, tz, qw, qx, qy, qz)`.
+    #[getter]
+    fn pose(&self) -> [f64; 7] {
+        let p = match &self.sim {
+            Sim::Memory(s) => s.state().pose,
+            Sim::File(s) => s.state().pose,
+        };
+        let (t, q) = (p.translation, p.rotation);
+        [t.x, t.y, t.z, q.w, q.x, q.y, q.z]
+    }
+}
