@@ -16,7 +16,8 @@
 //!    the contact stiffens; nothing is added along a face, which would brake a slide;
 //! 3. the motion `h·v'` by *conservative advancement* on the distance field: in sub-steps in
 //!    which no point moves more than a quarter of a voxel of the voxmap, a contact query each,
-//!    stopping (bisected to 1/256 of the sub-step) where the deepest point would pass
+//!    stopping (found by false position between the last sub-step and the first too deep,
+//!    within a tenth of the allowed depth) where the deepest point would pass
 //!    [`SimulationParams::max_penetration`], a quarter of a voxel by default. A wall at least
 //!    two voxels thick is never crossed, however fast the device moves: its interpolated
 //!    distance reaches at least half a voxel inside (two voxel centres lie in it, their
@@ -208,8 +209,12 @@ const SUBSTEP_VOXELS: f64 = 0.25;
 /// At most this many sub-steps per step: faster motion is slowed to it (a speed limit of
 /// `MAX_SUBSTEPS · SUBSTEP_VOXELS` voxels per step, reported as `limited`).
 const MAX_SUBSTEPS: u32 = 64;
-/// Bisections of a sub-step that went too deep: to 1/256 of it.
+/// Searches in a sub-step that went too deep, at most. Each shrinks the bracket to 90 % of it
+/// or less; when they run out first, the object stops at the deepest pose found within the
+/// allowed depth (short of it, never past it).
 const BISECTIONS: u32 = 8;
+/// The search stops at a pose this deep, as a fraction of the allowed depth, or deeper.
+const CLOSE_ENOUGH: f64 = 0.9;
 
 /// A simulated rigid object held through a virtual coupling, in contact with a voxmap.
 pub struct Simulation<'a, S: PointshellData + ?Sized> {
@@ -459,18 +464,26 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 (best, best_contact) = (pose, c);
                 continue;
             }
-            // Too deep at `hi`, within the limit at `lo`: bisect.
+            // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
+            // within it, by false position (the depth is nearly linear along a sub-step), kept
+            // off the bracket's ends so the bracket always shrinks; done once within the last
+            // tenth of the allowed depth.
             let (mut ok, mut bad) = (lo, hi);
+            let (mut depth_ok, mut depth_bad) = (best_contact.max_penetration, c.max_penetration);
             for _ in 0..BISECTIONS {
-                let mid = 0.5 * (ok + bad);
+                if depth_ok >= CLOSE_ENOUGH * limit {
+                    break;
+                }
+                let t = ((CLOSE_ENOUGH * limit + limit) * 0.5 - depth_ok) / (depth_bad - depth_ok);
+                let mid = ok + (bad - ok) * t.clamp(0.1, 0.9);
                 let pose = at(mid)?;
                 let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
                 queries += 1;
                 if c.max_penetration <= limit {
-                    ok = mid;
+                    (ok, depth_ok) = (mid, c.max_penetration);
                     (best, best_contact) = (pose, c);
                 } else {
-                    bad = mid;
+                    (bad, depth_bad) = (mid, c.max_penetration);
                 }
             }
             return Ok((best, best_contact, ok * scale, queries));
