@@ -45,6 +45,8 @@ pub(crate) struct PyStep {
     max_penetration: f64,
     /// Whether the object stopped short to keep within the allowed depth.
     limited: bool,
+    /// Whether the object stopped short because the step's time budget ran out.
+    out_of_time: bool,
     /// Contact queries the step ran.
     queries: u32,
     /// Kinetic energy after the step.
@@ -66,6 +68,7 @@ impl From<Step> for PyStep {
             points_in_contact: s.contact.points_in_contact,
             max_penetration: s.contact.max_penetration,
             limited: s.limited,
+            out_of_time: s.out_of_time,
             queries: s.queries,
             kinetic_energy: s.kinetic_energy,
             coupling_energy: s.coupling_energy,
@@ -108,9 +111,10 @@ impl PySimulation {
     /// The object at rest at `start_pose`. `mass` (its inertia is its shell's); `coupling`,
     /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
     /// mass, critically damped); `stiffness`, the contact's per point (default: the
-    /// coupling's); `max_penetration`, in voxels of the voxmap.
+    /// coupling's); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
+    /// each step's motion (default: exact, the same on every run).
     #[new]
-    #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance"))]
+    #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -122,7 +126,14 @@ impl PySimulation {
         stiffness: Option<f64>,
         max_penetration: f64,
         penetration: &str,
+        budget_seconds: Option<f64>,
     ) -> PyResult<PySimulation> {
+        let step_budget = match budget_seconds {
+            Some(b) if !(b.is_finite() && b > 0.0) => {
+                return Err(PyValueError::new_err(format!("budget_seconds must be > 0, got {b}")))
+            }
+            b => b.map(std::time::Duration::from_secs_f64),
+        };
         let start = pose_of(Some(&start_pose))?;
         let penetration = penetration_of(penetration)?;
         if !(mass.is_finite() && mass > 0.0) {
@@ -154,6 +165,7 @@ impl PySimulation {
             }
             params.contact.penetration = penetration;
             params.max_penetration = max_penetration;
+            params.step_budget = step_budget;
             Ok(params)
         };
         let sim = match &sh.data {

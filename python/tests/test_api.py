@@ -187,6 +187,11 @@ def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_
     (tmp_path / "hand.txt").write_text("".join(" ".join(map(repr, p)) + "\n" for p in device))
     out = run_vps("simulate", tmp_path / "wall.vxm", tmp_path / "ball.vps", "--device", tmp_path / "hand.txt", "--json")
     assert json.loads(out.stdout)["final_pose"]["translation"] == list(steps[-1].pose[:3])
+    # A step budget too short for any query: the object stays where a complete query put it.
+    starved = vps.Simulation(wall, shell, device[0], budget_seconds=1e-9)
+    assert all(starved.step(p).out_of_time for p in device[:5]) and starved.pose[:3] == list(device[0][:3])
+    with pytest.raises(ValueError, match="budget_seconds"):
+        vps.Simulation(wall, shell, device[0], budget_seconds=-1.0)
     with pytest.raises(ValueError, match="mass"):
         vps.Simulation(wall, shell, device[0], mass=0.0)
     with pytest.raises(vps.HapticsError, match="deep"):

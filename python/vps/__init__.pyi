@@ -125,6 +125,7 @@ class SimulationStep:
     points_in_contact: int
     max_penetration: float
     limited: bool
+    out_of_time: bool
     queries: int
     kinetic_energy: float
     coupling_energy: float
@@ -145,6 +146,7 @@ class Simulation:
         stiffness: Optional[float] = None,
         max_penetration: float = 0.25,
         penetration: Literal["distance", "layers"] = "distance",
+        budget_seconds: Optional[float] = None,
     ) -> None: ...
     def step(self, device_pose: Sequence[float]) -> SimulationStep:
         """One 1 ms step towards the device pose; render the returned device_force."""

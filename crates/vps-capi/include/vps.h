@@ -141,6 +141,7 @@ typedef struct vps_simulation_params {
     double coupling_damping;   /* linear; default critical for the stiffness */
     double contact_stiffness;  /* per point in contact; default the coupling's stiffness */
     double max_penetration;    /* deepest a point may go, voxels of the voxmap; default 0.25 */
+    double step_budget_us;     /* time for a step's motion; default none (exact, same bits every run) */
     int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
     int32_t reserved;          /* must be 0 */
 } vps_simulation_params;
@@ -156,6 +157,8 @@ typedef struct vps_simulation_step_result {
     uint64_t points_in_contact;
     uint32_t queries;          /* contact queries the step ran */
     int32_t limited;           /* 1: stopped short to keep within max_penetration */
+    int32_t out_of_time;       /* 1: stopped short because step_budget_us ran out */
+    int32_t reserved;          /* always 0 */
 } vps_simulation_step_result;
 
 /*

@@ -25,6 +25,8 @@ pub struct VpsSimulationParams {
     pub contact_stiffness: c_double,
     /// The deepest a point may go, in voxels of the voxmap; 0: ¼.
     pub max_penetration: c_double,
+    /// Time for a step's motion, microseconds; 0: none (exact, the same bits on every run).
+    pub step_budget_us: c_double,
     /// `VPS_PENETRATION_DISTANCE` or `VPS_PENETRATION_LAYERS`.
     pub penetration: i32,
     /// Must be 0.
@@ -53,6 +55,10 @@ pub struct VpsSimulationStep {
     pub queries: u32,
     /// 1 when the advancement stopped short to keep within the allowed depth.
     pub limited: i32,
+    /// 1 when the advancement stopped short because the step's time budget ran out.
+    pub out_of_time: i32,
+    /// Always 0.
+    pub reserved: i32,
 }
 
 /// `vps_simulation` in C.
@@ -86,6 +92,7 @@ fn simulation_params(
         ("coupling_damping", p.coupling_damping),
         ("contact_stiffness", p.contact_stiffness),
         ("max_penetration", p.max_penetration),
+        ("step_budget_us", p.step_budget_us),
     ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(format!("{name} must be >= 0 (0 for the default), got {v}"));
@@ -111,6 +118,7 @@ fn simulation_params(
     if p.max_penetration > 0.0 {
         params.max_penetration = p.max_penetration;
     }
+    params.step_budget = budget_of(p.step_budget_us)?;
     Ok((body, params))
 }
 
@@ -210,6 +218,8 @@ pub unsafe extern "C" fn vps_simulation_step(
             points_in_contact: s.contact.points_in_contact,
             queries: s.queries,
             limited: s.limited as i32,
+            out_of_time: s.out_of_time as i32,
+            reserved: 0,
         };
         // SAFETY: not NULL, and the header requires a writable struct; unaligned is fine.
         unsafe { out.write_unaligned(result) };
@@ -242,14 +252,16 @@ mod tests {
     #[test]
     fn layouts_are_the_headers() {
         assert_eq!(offset_of!(VpsSimulationParams, max_penetration), 32);
-        assert_eq!(offset_of!(VpsSimulationParams, penetration), 40);
-        assert_eq!(size_of::<VpsSimulationParams>(), 48);
+        assert_eq!(offset_of!(VpsSimulationParams, step_budget_us), 40);
+        assert_eq!(offset_of!(VpsSimulationParams, penetration), 48);
+        assert_eq!(size_of::<VpsSimulationParams>(), 56);
         assert_eq!(offset_of!(VpsSimulationStep, device_force), 56);
         assert_eq!(offset_of!(VpsSimulationStep, contact_force), 104);
         assert_eq!(offset_of!(VpsSimulationStep, max_penetration), 128);
         assert_eq!(offset_of!(VpsSimulationStep, points_in_contact), 144);
         assert_eq!(offset_of!(VpsSimulationStep, queries), 152);
         assert_eq!(offset_of!(VpsSimulationStep, limited), 156);
-        assert_eq!(size_of::<VpsSimulationStep>(), 160);
+        assert_eq!(offset_of!(VpsSimulationStep, out_of_time), 160);
+        assert_eq!(size_of::<VpsSimulationStep>(), 168);
     }
 }

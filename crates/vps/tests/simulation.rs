@@ -311,3 +311,49 @@ fn a_peg_goes_into_a_wider_hole_and_not_into_a_narrower_one() {
         wide.tip, wide.largest_force, wide.deepest, narrow.tip, narrow.largest_force
     );
 }
+
+/// With a step budget too short for any query, the object moves only to poses a complete
+/// query checked: it stays put and says so, and never goes past the wall; with a budget that
+/// is never spent, the run is the exact one (to rounding: the time-critical walk sums the
+/// points in another order).
+#[test]
+fn a_step_budget_stops_the_object_short_never_deeper() {
+    let s = 0.1;
+    let wall = static_map(
+        shapes::cuboid(DVec3::new(0.0, -3.0, -3.0), DVec3::new(2.0 * s, 3.0, 3.0)),
+        s,
+    );
+    let ball = shell_of(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
+    let body = MassProperties::of_shell(&ball, 1.0);
+    let exact = SimulationParams::for_body(&body);
+    let run = |params: SimulationParams| {
+        let mut sim = Simulation::new(&wall, &ball, body, params, at(-1.0, 0.0, 0.0)).unwrap();
+        (0..60)
+            .map(|i| {
+                sim.step(&at((-1.0 + (i + 1) as f64 * 10.0 * s).min(3.0), 0.0, 0.0))
+                    .unwrap()
+            })
+            .collect::<Vec<Step>>()
+    };
+    let starved = run(SimulationParams {
+        step_budget: Some(std::time::Duration::from_nanos(1)),
+        ..exact
+    });
+    assert!(starved.iter().all(|st| st.out_of_time && !st.limited));
+    assert!(starved
+        .iter()
+        .all(|st| st.pose.translation == DVec3::new(-1.0, 0.0, 0.0)));
+    let generous = run(SimulationParams {
+        step_budget: Some(std::time::Duration::from_secs(60)),
+        ..exact
+    });
+    let reference = run(exact);
+    assert!(generous.iter().all(|st| !st.out_of_time));
+    for (i, (g, r)) in generous.iter().zip(&reference).enumerate() {
+        assert!(
+            (g.pose.translation - r.pose.translation).length() < 1e-9,
+            "step {i}: {g:?} vs {r:?}"
+        );
+        assert_eq!(g.limited, r.limited, "step {i}");
+    }
+}

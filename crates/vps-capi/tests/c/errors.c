@@ -55,11 +55,12 @@ int main(int argc, char **argv) {
     printf("params %zu %zu %zu %zu %zu %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
            offsetof(vps_contact_params, budget_us), offsetof(vps_contact_params, penetration),
            offsetof(vps_contact_params, reserved), VPS_PENETRATION_DISTANCE, VPS_PENETRATION_LAYERS);
-    printf("simulation %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_simulation_params),
-           offsetof(vps_simulation_params, max_penetration), offsetof(vps_simulation_params, penetration),
+    printf("simulation %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_simulation_params),
+           offsetof(vps_simulation_params, max_penetration), offsetof(vps_simulation_params, step_budget_us),
+           offsetof(vps_simulation_params, penetration),
            sizeof(vps_simulation_step_result), offsetof(vps_simulation_step_result, device_force),
            offsetof(vps_simulation_step_result, contact_force), offsetof(vps_simulation_step_result, points_in_contact),
-           offsetof(vps_simulation_step_result, queries), offsetof(vps_simulation_step_result, limited));
+           offsetof(vps_simulation_step_result, queries), offsetof(vps_simulation_step_result, out_of_time));
     printf("version %s\n", vps_version());
 
     /* Version. */

@@ -66,13 +66,14 @@ fn d_the_header_matches_the_rust_side() {
         [
             size_of::<ffi::VpsSimulationParams>(),
             offset_of!(ffi::VpsSimulationParams, max_penetration),
+            offset_of!(ffi::VpsSimulationParams, step_budget_us),
             offset_of!(ffi::VpsSimulationParams, penetration),
             size_of::<ffi::VpsSimulationStep>(),
             offset_of!(ffi::VpsSimulationStep, device_force),
             offset_of!(ffi::VpsSimulationStep, contact_force),
             offset_of!(ffi::VpsSimulationStep, points_in_contact),
             offset_of!(ffi::VpsSimulationStep, queries),
-            offset_of!(ffi::VpsSimulationStep, limited),
+            offset_of!(ffi::VpsSimulationStep, out_of_time),
         ],
         "the simulation's structs in C vs Rust"
     );

@@ -42,6 +42,10 @@ pub struct SimulateArgs {
     /// The deepest any point may go, in voxels of the voxmap.
     #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
     pub max_penetration: f64,
+    /// Time for each step's motion, microseconds: queries get what is left as their budget,
+    /// and the object stops short (catching up later) rather than run late. Default: exact.
+    #[arg(long)]
+    pub budget_us: Option<u64>,
     /// How deep a point in contact is.
     #[arg(long, value_enum, default_value_t = PenetrationArg::Distance)]
     pub penetration: PenetrationArg,
@@ -97,6 +101,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     params.contact.penetration = a.penetration.into();
     params.max_penetration = a.max_penetration;
+    params.step_budget = a.budget_us.map(std::time::Duration::from_micros);
     if !voxmap.has_distances() && params.contact.penetration == vps::Penetration::Distance {
         errln!(
             "note: {} has no distances (make it with `vps voxelize --distance`): the layers measure depth",
@@ -126,7 +131,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
 fn csv(steps: &[Step]) -> String {
     let mut out = String::from(
         "step,tx,ty,tz,qw,qx,qy,qz,device_fx,device_fy,device_fz,device_tx,device_ty,device_tz,\
-         contact_fx,contact_fy,contact_fz,points_in_contact,max_penetration,limited,queries,step_us\n",
+         contact_fx,contact_fy,contact_fz,points_in_contact,max_penetration,limited,out_of_time,queries,step_us\n",
     );
     for (i, s) in steps.iter().enumerate() {
         let (t, q) = (s.pose.translation, s.pose.rotation);
@@ -134,7 +139,7 @@ fn csv(steps: &[Step]) -> String {
         // Infallible: writing to a String.
         let _ = writeln!(
             out,
-            "{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3}",
+            "{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3}",
             t.x,
             t.y,
             t.z,
@@ -154,6 +159,7 @@ fn csv(steps: &[Step]) -> String {
             s.contact.points_in_contact,
             s.contact.max_penetration,
             s.limited as u8,
+            s.out_of_time as u8,
             s.queries,
             s.micros
         );
@@ -199,6 +205,7 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
     let deepest = steps.iter().map(|s| s.contact.max_penetration).fold(0.0, f64::max);
     let in_contact = steps.iter().filter(|s| s.contact.points_in_contact > 0).count();
     let limited = steps.iter().filter(|s| s.limited).count();
+    let out_of_time = steps.iter().filter(|s| s.out_of_time).count();
     let over = steps.iter().filter(|s| s.micros > 1000.0).count();
     let largest_force = steps.iter().map(|s| s.device_force.length()).fold(0.0, f64::max);
     let energy = |s: &Step| s.kinetic_energy + s.coupling_energy;
@@ -213,6 +220,7 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
             "steps": steps.len(),
             "steps_in_contact": in_contact,
             "steps_limited": limited,
+            "steps_out_of_time": out_of_time,
             "steps_over_1ms": over,
             "max_penetration": deepest,
             "max_penetration_voxels": deepest / voxel,
@@ -230,6 +238,7 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
                 "coupling": {"stiffness": c.stiffness, "damping": c.damping, "angular_stiffness": c.angular_stiffness, "angular_damping": c.angular_damping},
                 "contact_stiffness": params.contact.stiffness,
                 "max_penetration_voxels": params.max_penetration,
+                "budget_us": a.budget_us,
                 "penetration": params.contact.penetration,
             },
             "csv": a.csv.as_ref().map(|p| p.display().to_string()),
@@ -251,6 +260,9 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
         deepest,
         deepest / voxel
     );
+    if a.budget_us.is_some() {
+        outln!("{out_of_time} steps stopped short when the budget ran out");
+    }
     outln!(
         "step µs: p50 {:.1}, p99 {:.1}, max {:.1}; {over} over 1 ms",
         percentile(&micros, 50.0),

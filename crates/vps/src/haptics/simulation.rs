@@ -31,7 +31,7 @@
 //!
 //! `docs/HAPTICS.md` ("The haptic loop") states the defaults and what the tests show.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -148,10 +148,15 @@ pub struct SimulationParams {
     /// The deepest any point may go into the static object, in voxels of the voxmap. At the
     /// default, ¼, a wall two voxels thick is never crossed (see the module's documentation).
     pub max_penetration: f64,
+    /// Time for a step's motion, from the start of the step: its queries use what is left as
+    /// their time-critical budget, and the object moves only to poses a complete query checked,
+    /// so it stops short (catching up on later steps) rather than run late or go deeper.
+    /// `None` (the default): exact, and the same bits on every run.
+    pub step_budget: Option<Duration>,
 }
 
 impl SimulationParams {
-    /// The defaults for `body` and a voxmap of voxel size `voxel`, at 1 kHz: [`Coupling::for_body`];
+    /// The defaults for `body` at 1 kHz: [`Coupling::for_body`];
     /// contact stiffness per point that of the coupling (a contact of `n` points is `n` times
     /// stiffer than the coupling, so the object sinks about `1/(n + 1)` of the device's offset);
     /// at most a quarter of a voxel deep.
@@ -166,6 +171,7 @@ impl SimulationParams {
                 ..Default::default()
             },
             max_penetration: 0.25,
+            step_budget: None,
         }
     }
 }
@@ -194,6 +200,8 @@ pub struct Step {
     pub contact: Contact,
     /// Whether the advancement stopped short to keep every point within the allowed depth.
     pub limited: bool,
+    /// Whether the advancement stopped short because the step's time budget ran out.
+    pub out_of_time: bool,
     /// Contact queries the step ran.
     pub queries: u32,
     /// Kinetic energy after the step.
@@ -362,10 +370,13 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let held = inertia + DMat3::from_diagonal(DVec3::splat(h * c.angular_damping));
         let spin = (held + k_angular * (h * h)).inverse() * (held * s.angular_velocity + h * torque);
 
-        let (pose, contact, limited, queries) = self.advance(velocity * h, spin * h)?;
+        let advance = self.advance(velocity * h, spin * h, started)?;
+        let (pose, contact, queries, out_of_time) =
+            (advance.pose, advance.contact, advance.queries, advance.out_of_time);
+        let limited = advance.fraction < 1.0 && !out_of_time;
         let moved = self.centre_at(&pose) - centre;
         let turned = rotation_vector(pose.rotation * s.pose.rotation.inverse());
-        self.state = if limited {
+        self.state = if advance.fraction < 1.0 {
             BodyState {
                 pose,
                 velocity: moved / h,
@@ -393,6 +404,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             device_torque: -twist,
             contact,
             limited,
+            out_of_time,
             queries,
             kinetic_energy: 0.5 * m * st.velocity.length_squared()
                 + 0.5 * st.angular_velocity.dot(inertia * st.angular_velocity),
@@ -403,39 +415,60 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
     }
 
     /// Move the object by `shift` (of its centre of mass) and `turn` (a rotation vector about
-    /// it) as far as the allowed depth lets it: the pose reached, the contact there, whether it
-    /// stopped short, and the queries run.
-    fn advance(&self, shift: DVec3, turn: DVec3) -> Result<(Pose, Contact, bool, u32), HapticsError> {
-        let start = self.state.pose;
-        let (pose, contact, fraction, mut queries) = self.advance_from(&start, self.contact, shift, turn)?;
-        if fraction >= 1.0 {
-            return Ok((pose, contact, false, queries));
+    /// it) as far as the allowed depth and the time budget (counted from `started`) let it.
+    fn advance(&self, shift: DVec3, turn: DVec3, started: Instant) -> Result<Advance, HapticsError> {
+        let deadline = self.params.step_budget.map(|b| started + b);
+        let first = self.advance_from(&self.state.pose, self.contact, shift, turn, deadline)?;
+        if first.fraction >= 1.0 || first.out_of_time {
+            return Ok(first);
         }
         // Blocked: slide. The rest of the motion, without its part along the contact force
         // (the wall's normal there) and about the contact torque.
-        let rest = 1.0 - fraction;
+        let rest = 1.0 - first.fraction;
         let along = |v: DVec3, n: DVec3| {
             let n = n.normalize_or_zero();
             let into = v.dot(n).min(0.0);
             v - n * into
         };
-        let shift = along(shift * rest, contact.force);
-        let turn = along(turn * rest, contact.torque);
-        let (slid, slid_contact, _, more) = self.advance_from(&pose, contact, shift, turn)?;
-        queries += more;
-        Ok((slid, slid_contact, true, queries))
+        let shift = along(shift * rest, first.contact.force);
+        let turn = along(turn * rest, first.contact.torque);
+        let slid = self.advance_from(&first.pose, first.contact, shift, turn, deadline)?;
+        Ok(Advance {
+            queries: first.queries + slid.queries,
+            fraction: first.fraction,
+            ..slid
+        })
+    }
+
+    /// The contact at `pose`, or `None` when the time to `deadline` ran out before a complete
+    /// answer (an incomplete one does not bound the deepest point).
+    fn checked(&self, pose: &Pose, deadline: Option<Instant>) -> Result<Option<Contact>, HapticsError> {
+        let Some(deadline) = deadline else {
+            return contact(self.voxmap, self.shell, pose, &self.params.contact).map(Some);
+        };
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Ok(None);
+        }
+        let params = ContactParams {
+            budget: Some(left),
+            ..self.params.contact
+        };
+        let c = contact(self.voxmap, self.shell, pose, &params)?;
+        Ok(c.complete.then_some(c))
     }
 
     /// Conservative advancement from `from` (with its contact `at_start`): the pose at the
-    /// largest fraction of the motion found with every point within the allowed depth, its
-    /// contact, that fraction, and the queries run.
+    /// largest fraction of the motion found with every point within the allowed depth, in
+    /// the time to `deadline`.
     fn advance_from(
         &self,
         from: &Pose,
         at_start: Contact,
         shift: DVec3,
         turn: DVec3,
-    ) -> Result<(Pose, Contact, f64, u32), HapticsError> {
+        deadline: Option<Instant>,
+    ) -> Result<Advance, HapticsError> {
         let limit = self.params.max_penetration * self.voxel;
         let reach = shift.length() + turn.length() * self.radius;
         let wanted = (reach / (SUBSTEP_VOXELS * self.voxel)).ceil();
@@ -454,14 +487,23 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             let q = [rotation.w, rotation.x, rotation.y, rotation.z];
             Ok(Pose::new(translation.to_array(), q)?)
         };
-        let (mut best, mut best_contact, mut queries) = (*from, at_start, 0u32);
+        let mut done = Advance {
+            pose: *from,
+            contact: at_start,
+            fraction: 0.0,
+            queries: 0,
+            out_of_time: false,
+        };
         for j in 1..=n {
             let (lo, hi) = ((j - 1) as f64 / n as f64, j as f64 / n as f64);
             let pose = at(hi)?;
-            let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
-            queries += 1;
+            done.queries += 1;
+            let Some(c) = self.checked(&pose, deadline)? else {
+                done.out_of_time = true;
+                return Ok(done);
+            };
             if c.max_penetration <= limit {
-                (best, best_contact) = (pose, c);
+                (done.pose, done.contact, done.fraction) = (pose, c, hi * scale);
                 continue;
             }
             // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
@@ -469,7 +511,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             // off the bracket's ends so the bracket always shrinks; done once within the last
             // tenth of the allowed depth.
             let (mut ok, mut bad) = (lo, hi);
-            let (mut depth_ok, mut depth_bad) = (best_contact.max_penetration, c.max_penetration);
+            let (mut depth_ok, mut depth_bad) = (done.contact.max_penetration, c.max_penetration);
             for _ in 0..BISECTIONS {
                 if depth_ok >= CLOSE_ENOUGH * limit {
                     break;
@@ -477,19 +519,35 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 let t = ((CLOSE_ENOUGH * limit + limit) * 0.5 - depth_ok) / (depth_bad - depth_ok);
                 let mid = ok + (bad - ok) * t.clamp(0.1, 0.9);
                 let pose = at(mid)?;
-                let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
-                queries += 1;
+                done.queries += 1;
+                let Some(c) = self.checked(&pose, deadline)? else {
+                    done.out_of_time = true;
+                    break;
+                };
                 if c.max_penetration <= limit {
                     (ok, depth_ok) = (mid, c.max_penetration);
-                    (best, best_contact) = (pose, c);
+                    (done.pose, done.contact, done.fraction) = (pose, c, mid * scale);
                 } else {
                     (bad, depth_bad) = (mid, c.max_penetration);
                 }
             }
-            return Ok((best, best_contact, ok * scale, queries));
+            return Ok(done);
         }
-        Ok((best, best_contact, scale, queries))
+        Ok(done)
     }
+}
+
+/// Where an advancement got to.
+struct Advance {
+    /// The pose reached and the contact there.
+    pose: Pose,
+    contact: Contact,
+    /// The fraction of the motion made.
+    fraction: f64,
+    /// Contact queries run.
+    queries: u32,
+    /// Whether the time budget stopped it.
+    out_of_time: bool,
 }
 
 /// The rotation vector (axis times angle, the angle in [0, π]) of unit quaternion `q`.
