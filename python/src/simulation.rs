@@ -111,7 +111,7 @@ impl PySimulation {
     /// The object at rest at `start_pose`. `mass` (its inertia is its shell's); `coupling`,
     /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
     /// mass, critically damped); `stiffness`, the contact's per point (default: the
-    /// coupling's); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
+    /// coupling's; tested passive up to twice it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
     /// each step's motion (default: exact, the same on every run).
     #[new]
     #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]

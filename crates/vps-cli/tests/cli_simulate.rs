@@ -102,6 +102,19 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
         serde_json::json!([-1.0, 0.0, 0.0])
     );
 
+    // A contact much stiffer than the coupling runs, with a note on stability.
+    let o = vps(&[
+        "simulate",
+        p(&vxm),
+        p(&vps_path),
+        "--device",
+        p(&device),
+        "--stiffness",
+        "1e9",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("tested passive only up to twice"), "{}", stderr(&o));
+
     // The table form.
     let o = vps(&["simulate", p(&vxm), p(&vps_path), "--device", p(&device)]);
     assert!(o.status.success(), "{}", stderr(&o));

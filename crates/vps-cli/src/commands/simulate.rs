@@ -36,7 +36,8 @@ pub struct SimulateArgs {
     /// mass, critically damped; the angular ones follow at the radius of gyration).
     #[arg(long, value_parser = parse_pair)]
     pub coupling: Option<(f64, f64)>,
-    /// Contact stiffness per point (default: the coupling's stiffness).
+    /// Contact stiffness per point (default: the coupling's stiffness). Tested passive up to
+    /// twice the coupling's (docs/HAPTICS.md); above that the run may gain energy.
     #[arg(long, allow_negative_numbers = true)]
     pub stiffness: Option<f64>,
     /// The deepest any point may go, in voxels of the voxmap.
@@ -98,6 +99,13 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             bail!("--stiffness must be a number >= 0, got {k}");
         }
         params.contact.stiffness = k;
+    }
+    if params.contact.stiffness > 2.0 * params.coupling.stiffness {
+        errln!(
+            "note: a contact stiffness of {} per point is over twice the coupling's ({}): the loop is tested passive only up to twice (docs/HAPTICS.md)",
+            params.contact.stiffness,
+            params.coupling.stiffness
+        );
     }
     params.contact.penetration = a.penetration.into();
     params.max_penetration = a.max_penetration;
