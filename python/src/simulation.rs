@@ -59,9 +59,8 @@ pub(crate) struct PyStep {
 
 impl From<Step> for PyStep {
     fn from(s: Step) -> PyStep {
-        let (t, q) = (s.pose.translation, s.pose.rotation);
         PyStep {
-            pose: [t.x, t.y, t.z, q.w, q.x, q.y, q.z],
+            pose: s.pose.to_array(),
             device_force: s.device_force.to_array(),
             device_torque: s.device_torque.to_array(),
             contact_force: s.contact.force.to_array(),
@@ -196,11 +195,10 @@ impl PySimulation {
     /// The object's pose, `(tx, ty, tz, qw, qx, qy, qz)`.
     #[getter]
     fn pose(&self) -> [f64; 7] {
-        let p = match &self.sim {
+        match &self.sim {
             Sim::Memory(s) => s.state().pose,
             Sim::File(s) => s.state().pose,
-        };
-        let (t, q) = (p.translation, p.rotation);
-        [t.x, t.y, t.z, q.w, q.x, q.y, q.z]
+        }
+        .to_array()
     }
 }

@@ -344,15 +344,14 @@ pub unsafe extern "C" fn vps_contact_with_params(
                 return Err((VPS_ERR_NULL, format!("{name} is NULL")));
             }
         }
-        // SAFETY: not NULL, and the header requires `pose` to point to 7 readable doubles and
-        // `params` to a readable `vps_contact_params`; unaligned reads ask nothing more.
-        let (p, params): ([f64; 7], VpsContactParams) =
-            unsafe { (pose.cast::<[f64; 7]>().read_unaligned(), params.read_unaligned()) };
+        // SAFETY: not NULL, and the header requires `params` to point to a readable
+        // `vps_contact_params`; an unaligned read asks nothing more.
+        let params = unsafe { params.read_unaligned() };
         // SAFETY: not NULL, and the header requires open handles, which stay valid (and are
         // only read, through `Sync` types) until the caller closes them after this call.
         let (voxmap, shell) = unsafe { (&(*voxmap).inner, &(*pointshell).inner) };
-        let pose =
-            Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))?;
+        // SAFETY: not NULL, and the header requires `pose` to point to 7 readable doubles.
+        let pose = unsafe { read_pose(pose) }?;
         let params = contact_params(&params).map_err(|m| (VPS_ERR_PARAM, m))?;
         let c = contact(voxmap, shell, &pose, &params).map_err(|e| (code_of(&e), e.to_string()))?;
         // SAFETY: not NULL, and the header requires `out` to point to a writable `vps_contact_result`;
@@ -373,6 +372,16 @@ fn guard_code(err: ErrBuf, body: impl FnOnce() -> Result<(), (c_int, String)>) -
     };
     err.write(&msg);
     code
+}
+
+/// Read a pose of 7 doubles, `tx ty tz qw qx qy qz`.
+///
+/// # Safety
+/// `pose` must point to 7 readable doubles.
+unsafe fn read_pose(pose: *const c_double) -> Result<Pose, (c_int, String)> {
+    // SAFETY: the caller's promise; an unaligned read asks nothing more.
+    let p: [f64; 7] = unsafe { pose.cast::<[f64; 7]>().read_unaligned() };
+    Pose::from_array(p).map_err(|e| (VPS_ERR_POSE, e.to_string()))
 }
 
 /// The return code of a query's error.

@@ -7,7 +7,7 @@
 use std::ffi::{c_char, c_double, c_int};
 
 use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams};
-use vps::{PointshellFile, Pose};
+use vps::PointshellFile;
 
 use super::*;
 
@@ -122,16 +122,6 @@ fn simulation_params(
     Ok((body, params))
 }
 
-/// Read a pose of 7 doubles.
-///
-/// # Safety
-/// `pose` must point to 7 readable doubles.
-unsafe fn read_pose(pose: *const c_double) -> Result<Pose, (c_int, String)> {
-    // SAFETY: the caller's promise; an unaligned read asks nothing more.
-    let p: [f64; 7] = unsafe { pose.cast::<[f64; 7]>().read_unaligned() };
-    Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).map_err(|e| (VPS_ERR_POSE, e.to_string()))
-}
-
 /// A simulated copy of `pointshell`'s object at rest at `start_pose`, held through a virtual
 /// coupling, in contact with `voxmap`; NULL with a message in `err` when it cannot be made.
 ///
@@ -207,9 +197,8 @@ pub unsafe extern "C" fn vps_simulation_step(
         // steps at the same time: this is the only reference to it for the call.
         let sim = unsafe { &mut (*simulation).inner };
         let s = sim.step(&device).map_err(|e| (code_of(&e), e.to_string()))?;
-        let (t, q) = (s.pose.translation, s.pose.rotation);
         let result = VpsSimulationStep {
-            pose: [t.x, t.y, t.z, q.w, q.x, q.y, q.z],
+            pose: s.pose.to_array(),
             device_force: s.device_force.to_array(),
             device_torque: s.device_torque.to_array(),
             contact_force: s.contact.force.to_array(),

@@ -117,7 +117,25 @@ impl Pose {
                 token: t.chars().take(40).collect(),
             })?;
         }
+        Pose::from_array(v)
+    }
+
+    /// A pose from its seven numbers in the text form's order, `tx ty tz qw qx qy qz`, as
+    /// [`Pose::new`] takes them.
+    pub fn from_array(v: [f64; 7]) -> Result<Pose, PoseError> {
         Pose::new([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6]])
+    }
+
+    /// The seven numbers `tx ty tz qw qx qy qz`, as [`Pose::from_array`] takes them.
+    pub fn to_array(&self) -> [f64; 7] {
+        let (t, q) = (self.translation, self.rotation);
+        [t.x, t.y, t.z, q.w, q.x, q.y, q.z]
+    }
+
+    /// This pose checked again (its fields are public, so it may not be a rigid transform):
+    /// [`Pose::from_array`] of its numbers.
+    pub fn checked(&self) -> Result<Pose, PoseError> {
+        Pose::from_array(self.to_array())
     }
 
     /// The rotation as a matrix.
@@ -141,6 +159,24 @@ impl Pose {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn arrays_are_the_text_forms_order() {
+        let p = Pose::from_array([1.0, -2.0, 3.5, 2.0, 0.0, 0.0, 0.0]).unwrap();
+        assert_eq!(p.to_array(), [1.0, -2.0, 3.5, 1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(Pose::parse(&p.to_text()).unwrap().to_array(), p.to_array());
+        // A pose whose public rotation was set by hand is normalised again, or refused.
+        let hand = Pose {
+            rotation: DQuat::from_xyzw(0.0, 0.0, 0.0, 4.0),
+            ..p
+        };
+        assert_eq!(hand.checked().unwrap(), p);
+        let zero = Pose {
+            rotation: DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+            ..p
+        };
+        assert!(matches!(zero.checked(), Err(PoseError::ZeroQuaternion(_))));
+    }
 
     #[test]
     fn parses_and_round_trips() {

@@ -195,11 +195,7 @@ impl<'a> Frame<'a> {
                 params.stiffness
             )));
         }
-        // Re-check the pose: its fields are public.
-        let pose = Pose::new(pose.translation.to_array(), {
-            let q = pose.rotation;
-            [q.w, q.x, q.y, q.z]
-        })?;
+        let pose = pose.checked()?;
         let grid = voxmap.grid();
         let rot = pose.matrix();
         let s = grid.voxel_size;

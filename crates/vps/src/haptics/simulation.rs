@@ -327,10 +327,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
     /// simulation is left as it was.
     pub fn step(&mut self, device: &Pose) -> Result<Step, HapticsError> {
         let started = Instant::now();
-        let device = Pose::new(device.translation.to_array(), {
-            let q = device.rotation;
-            [q.w, q.x, q.y, q.z]
-        })?;
+        let device = device.checked()?;
         let (h, c, m) = (self.params.step, self.params.coupling, self.body.mass);
         let device_centre = self.centre_at(&device);
         // The device's velocities, by finite difference (none before its second sample).
