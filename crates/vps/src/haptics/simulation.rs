@@ -312,14 +312,23 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         pose.transform_point(self.body.centre)
     }
 
-    /// The coupling's offsets to `device`: position (device minus object) and rotation vector
-    /// (from the object's orientation to the device's).
-    fn offsets(&self, device: &Pose) -> (DVec3, DVec3) {
-        let dx = self.centre_at(device) - self.centre_at(&self.state.pose);
-        (
-            dx,
-            rotation_vector(device.rotation * self.state.pose.rotation.inverse()),
-        )
+    /// The inertia tensor about the centre of mass in the world frame at `pose`.
+    fn inertia_at(&self, pose: &Pose) -> DMat3 {
+        let rot = pose.matrix();
+        rot * self.body.inertia * rot.transpose()
+    }
+
+    /// The coupling between the object in state `s` and the device at `device`, moving at
+    /// `device_motion` (velocity, angular velocity).
+    fn coupling(&self, s: &BodyState, device: &Pose, device_motion: (DVec3, DVec3)) -> CouplingWrench {
+        let c = self.params.coupling;
+        let offset = self.centre_at(device) - self.centre_at(&s.pose);
+        let turn = rotation_vector(device.rotation * s.pose.rotation.inverse());
+        CouplingWrench {
+            force: offset * c.stiffness + (device_motion.0 - s.velocity) * c.damping,
+            torque: turn * c.angular_stiffness + (device_motion.1 - s.angular_velocity) * c.angular_damping,
+            energy: 0.5 * c.stiffness * offset.length_squared() + 0.5 * c.angular_stiffness * turn.length_squared(),
+        }
     }
 
     /// One step towards the device at `device` (a pose of the pointshell's frame, as the
@@ -340,14 +349,13 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         };
 
         let s = self.state;
-        let (offset, turn) = self.offsets(&device);
+        let device_motion = (device_velocity, device_spin);
         let centre = self.centre_at(&s.pose);
-        let coupling_force = offset * c.stiffness + (device_velocity - s.velocity) * c.damping;
-        let coupling_torque = turn * c.angular_stiffness + (device_spin - s.angular_velocity) * c.angular_damping;
+        let pull = self.coupling(&s, &device, device_motion);
         // The contact torque is about the pose's translation; about the centre of mass:
         let contact_torque = self.contact.torque + (s.pose.translation - centre).cross(self.contact.force);
-        let force = coupling_force + self.contact.force;
-        let torque = coupling_torque + contact_torque;
+        let force = pull.force + self.contact.force;
+        let torque = pull.torque + contact_torque;
 
         // Linearly implicit Euler, linear and angular parts apart. The contact's stiffness is
         // bounded by `K_c` per point in contact along the contact force (the points' normals
@@ -359,54 +367,45 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let k_linear = DMat3::from_diagonal(DVec3::splat(c.stiffness)) + along * k_contact;
         let mass = DMat3::from_diagonal(DVec3::splat(m + h * c.damping));
         let velocity = (mass + k_linear * (h * h)).inverse() * (mass * s.velocity + h * force);
-        let rot = s.pose.matrix();
-        let inertia = rot * self.body.inertia * rot.transpose();
         let across = DMat3::IDENTITY - along;
         let k_angular =
             DMat3::from_diagonal(DVec3::splat(c.angular_stiffness)) + across * (k_contact * self.radius * self.radius);
-        let held = inertia + DMat3::from_diagonal(DVec3::splat(h * c.angular_damping));
+        let held = self.inertia_at(&s.pose) + DMat3::from_diagonal(DVec3::splat(h * c.angular_damping));
         let spin = (held + k_angular * (h * h)).inverse() * (held * s.angular_velocity + h * torque);
 
         let advance = self.advance(velocity * h, spin * h, started)?;
-        let (pose, contact, queries, out_of_time) =
-            (advance.pose, advance.contact, advance.queries, advance.out_of_time);
-        let limited = advance.fraction < 1.0 && !out_of_time;
-        let moved = self.centre_at(&pose) - centre;
-        let turned = rotation_vector(pose.rotation * s.pose.rotation.inverse());
-        self.state = if advance.fraction < 1.0 {
-            BodyState {
-                pose,
-                velocity: moved / h,
-                angular_velocity: turned / h,
-            }
+        let pose = advance.pose;
+        // Stopped short: the velocity it really moved with.
+        let (velocity, angular_velocity) = if advance.fraction < 1.0 {
+            let moved = self.centre_at(&pose) - centre;
+            let turned = rotation_vector(pose.rotation * s.pose.rotation.inverse());
+            (moved / h, turned / h)
         } else {
-            BodyState {
-                pose,
-                velocity,
-                angular_velocity: spin,
-            }
+            (velocity, spin)
         };
-        self.contact = contact;
+        let st = BodyState {
+            pose,
+            velocity,
+            angular_velocity,
+        };
+        self.state = st;
+        self.contact = advance.contact;
         // Only now: a step that fails leaves the simulation as it was.
         self.device_before = Some((device_centre, device.rotation));
 
-        let (offset, turn) = self.offsets(&device);
-        let st = self.state;
-        let pull = offset * c.stiffness + (device_velocity - st.velocity) * c.damping;
-        let twist = turn * c.angular_stiffness + (device_spin - st.angular_velocity) * c.angular_damping;
-        let inertia = pose.matrix() * self.body.inertia * pose.matrix().transpose();
+        let pull = self.coupling(&st, &device, device_motion);
+        let inertia = self.inertia_at(&pose);
         Ok(Step {
             pose,
-            device_force: -pull,
-            device_torque: -twist,
-            contact,
-            limited,
-            out_of_time,
-            queries,
+            device_force: -pull.force,
+            device_torque: -pull.torque,
+            contact: advance.contact,
+            limited: advance.fraction < 1.0 && !advance.out_of_time,
+            out_of_time: advance.out_of_time,
+            queries: advance.queries,
             kinetic_energy: 0.5 * m * st.velocity.length_squared()
                 + 0.5 * st.angular_velocity.dot(inertia * st.angular_velocity),
-            coupling_energy: 0.5 * c.stiffness * offset.length_squared()
-                + 0.5 * c.angular_stiffness * turn.length_squared(),
+            coupling_energy: pull.energy,
             micros: started.elapsed().as_secs_f64() * 1e6,
         })
     }
@@ -532,6 +531,14 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         }
         Ok(done)
     }
+}
+
+/// The coupling's force and torque on the object (the device feels them reversed), and the
+/// energy in its springs.
+struct CouplingWrench {
+    force: DVec3,
+    torque: DVec3,
+    energy: f64,
 }
 
 /// Where an advancement got to.
