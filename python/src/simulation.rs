@@ -156,8 +156,7 @@ impl PySimulation {
                         "coupling must be (K, B) >= 0, got ({k}, {b})"
                     )));
                 }
-                params.coupling = Coupling::from_linear(k, b, body);
-                params.contact.stiffness = k;
+                params = params.with_coupling(Coupling::from_linear(k, b, body));
             }
             if let Some(k) = stiffness {
                 params.contact.stiffness = k;

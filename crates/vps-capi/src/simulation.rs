@@ -109,8 +109,7 @@ fn simulation_params(
         } else {
             2.0 * (k * mass).sqrt()
         };
-        params.coupling = Coupling::from_linear(k, b, &body);
-        params.contact.stiffness = k;
+        params = params.with_coupling(Coupling::from_linear(k, b, &body));
     }
     if p.contact_stiffness > 0.0 {
         params.contact.stiffness = p.contact_stiffness;

@@ -91,8 +91,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let body = MassProperties::of_shell(&shell, a.mass);
     let mut params = SimulationParams::for_body(&body);
     if let Some((k, b)) = a.coupling {
-        params.coupling = Coupling::from_linear(k, b, &body);
-        params.contact.stiffness = k;
+        params = params.with_coupling(Coupling::from_linear(k, b, &body));
     }
     if let Some(k) = a.stiffness {
         if !(k.is_finite() && k >= 0.0) {

@@ -166,12 +166,23 @@ impl SimulationParams {
         SimulationParams {
             step,
             coupling,
-            contact: ContactParams {
-                stiffness: coupling.stiffness,
-                ..Default::default()
-            },
+            contact: ContactParams::default(),
             max_penetration: 0.25,
             step_budget: None,
+        }
+        .with_coupling(coupling)
+    }
+
+    /// These parameters with `coupling`, and the contact stiffness per point that of the
+    /// coupling, as in the defaults.
+    pub fn with_coupling(self, coupling: Coupling) -> SimulationParams {
+        SimulationParams {
+            coupling,
+            contact: ContactParams {
+                stiffness: coupling.stiffness,
+                ..self.contact
+            },
+            ..self
         }
     }
 }
