@@ -209,6 +209,22 @@ fn into_handle<T>(value: T) -> *mut T {
     Box::into_raw(Box::new(value))
 }
 
+/// Take back a handle from [`into_handle`] and drop it; NULL is a no-op. A panic while
+/// dropping is caught: it has nowhere to be reported.
+///
+/// # Safety
+/// `handle` must be NULL or from [`into_handle`], not yet freed, and no longer in use.
+unsafe fn free_handle<T>(handle: *mut T) {
+    if handle.is_null() {
+        return;
+    }
+    let _ = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: the caller's promise: made by `Box::into_raw`, freed once, unused, so we own
+        // it again.
+        drop(unsafe { Box::from_raw(handle) });
+    }));
+}
+
 /// Open a `.vxm` voxmap and give a handle, or NULL with a message in `err`.
 ///
 /// # Safety
@@ -249,14 +265,9 @@ pub unsafe extern "C" fn vps_pointshell_open(
 /// thread may be using it.
 #[no_mangle]
 pub unsafe extern "C" fn vps_voxmap_close(voxmap: *mut VpsVoxmap) {
-    if voxmap.is_null() {
-        return;
-    }
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: the header requires a handle from `vps_voxmap_open` (made by `Box::into_raw`)
-        // that is closed once and is no longer in use, so we own it again.
-        drop(unsafe { Box::from_raw(voxmap) });
-    }));
+    // SAFETY: the header requires NULL or a handle from `vps_voxmap_open`, closed once and no
+    // longer in use.
+    unsafe { free_handle(voxmap) }
 }
 
 /// Close a pointshell handle and unmap its file. NULL is a no-op.
@@ -265,13 +276,8 @@ pub unsafe extern "C" fn vps_voxmap_close(voxmap: *mut VpsVoxmap) {
 /// As [`vps_voxmap_close`], for a handle from [`vps_pointshell_open`].
 #[no_mangle]
 pub unsafe extern "C" fn vps_pointshell_close(pointshell: *mut VpsPointshell) {
-    if pointshell.is_null() {
-        return;
-    }
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: as in `vps_voxmap_close`, for a handle from `vps_pointshell_open`.
-        drop(unsafe { Box::from_raw(pointshell) });
-    }));
+    // SAFETY: as in `vps_voxmap_close`, for a handle from `vps_pointshell_open`.
+    unsafe { free_handle(pointshell) }
 }
 
 /// The time budget of `budget_us` microseconds: `None` (exact) when ≤ 0 or too large to run out.

@@ -222,14 +222,9 @@ pub unsafe extern "C" fn vps_simulation_step(
 /// no other thread is using.
 #[no_mangle]
 pub unsafe extern "C" fn vps_simulation_free(simulation: *mut VpsSimulation) {
-    if simulation.is_null() {
-        return;
-    }
-    // SAFETY: the header requires a live simulation from `vps_simulation_new` (a `Box` turned
-    // into a raw pointer), freed once; nothing else uses it.
-    let result = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(simulation) })));
-    // Dropping frees memory only; a panic there has nowhere to be reported.
-    let _ = result;
+    // SAFETY: the header requires NULL or a simulation from `vps_simulation_new`, freed once
+    // and no longer in use.
+    unsafe { free_handle(simulation) }
 }
 
 #[cfg(test)]
