@@ -253,6 +253,12 @@ pub fn press_on_corner(params: &SlideParams, contact_params: &ContactParams) -> 
     Ok(figures(p.tilt_degrees, forces, points, worst_angle))
 }
 
+/// `|‖F‖(i) − ‖F‖(i − 1)|` for each pose after the first: the jitter a hand feels along the
+/// slide.
+pub fn force_changes(forces: &[f64]) -> impl Iterator<Item = f64> + '_ {
+    forces.windows(2).map(|w| (w[1] - w[0]).abs())
+}
+
 /// The figures of a slide from its forces.
 fn figures(tilt_degrees: f64, forces: Vec<f64>, points: u64, worst_angle: f64) -> SlideFigures {
     let n = forces.len() as f64;
@@ -261,7 +267,7 @@ fn figures(tilt_degrees: f64, forces: Vec<f64>, points: u64, worst_angle: f64) -
     let (lo, hi) = forces.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &f| {
         (lo.min(f), hi.max(f))
     });
-    let step = forces.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    let step = force_changes(&forces).fold(0.0, f64::max);
     // Relative figures of no force at all are 0, not NaN: nothing varies.
     let rel = |x: f64| if mean > 0.0 { x / mean } else { 0.0 };
     SlideFigures {
@@ -288,6 +294,7 @@ mod tests {
         assert!((f.std_over_mean - (0.5f64).sqrt() / 10.0).abs() < 1e-15);
         assert_eq!(f.spread_over_mean, 0.2);
         assert_eq!(f.largest_step_change_over_mean, 0.2);
+        assert_eq!(force_changes(&f.forces).collect::<Vec<_>>(), [2.0, 1.0, 0.0]);
         assert_eq!(f.mean_points_in_contact, 2.0);
         let none = figures(0.0, vec![0.0; 3], 0, 0.0);
         assert_eq!((none.std_over_mean, none.spread_over_mean), (0.0, 0.0));

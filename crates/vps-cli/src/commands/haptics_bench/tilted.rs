@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde_json::json;
 
-use vps::synth::slide::{slide_on_tilted_box, SlideFigures, SlideParams};
+use vps::synth::slide::{force_changes, slide_on_tilted_box, SlideFigures, SlideParams};
 
 use super::HapticsBenchArgs;
 use crate::args::contact_params;
@@ -81,8 +81,9 @@ fn write_plot(plot: &Path, slides: &[SlideFigures]) -> Result<()> {
     let jumps: Vec<Vec<f64>> = slides
         .iter()
         .map(|s| {
+            // No change before the first pose: a gap in the plot.
             std::iter::once(f64::NAN)
-                .chain(s.forces.windows(2).map(|w| (w[1] - w[0]).abs()))
+                .chain(force_changes(&s.forces))
                 .take(s.forces.len())
                 .collect()
         })
