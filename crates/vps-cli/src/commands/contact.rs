@@ -50,7 +50,8 @@ fn vec3(v: DVec3) -> String {
     format!("[{:.6e}, {:.6e}, {:.6e}]", v.x, v.y, v.z)
 }
 
-fn pose_json(p: &Pose) -> Value {
+/// A pose as JSON: its translation and its quaternion, w first.
+pub(crate) fn pose_json(p: &Pose) -> Value {
     let q = p.rotation;
     json!({"translation": p.translation.to_array(), "rotation_wxyz": [q.w, q.x, q.y, q.z]})
 }

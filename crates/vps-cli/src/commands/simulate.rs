@@ -13,6 +13,7 @@ use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationP
 use vps::haptics::trajectory::read_trajectory;
 use vps::Pose;
 
+use super::contact::pose_json;
 use super::haptics_bench::figures::percentile;
 use crate::args::PenetrationArg;
 use crate::inputs::{open_cached_voxmap, open_pointshell};
@@ -219,7 +220,6 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
     let last: &Pose = &steps.last().expect("a trajectory has a pose").pose;
     let c = params.coupling;
     if a.json {
-        let q = last.rotation;
         let j = json!({
             "voxmap": a.voxmap.display().to_string(),
             "pointshell": a.pointshell.display().to_string(),
@@ -238,7 +238,7 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
                 "final_kinetic_and_coupling": steps.last().map(energy),
                 "max_kinetic_and_coupling": steps.iter().map(energy).fold(0.0, f64::max),
             },
-            "final_pose": {"translation": last.translation.to_array(), "rotation_wxyz": [q.w, q.x, q.y, q.z]},
+            "final_pose": pose_json(last),
             "params": {
                 "step_seconds": params.step,
                 "mass": a.mass,
