@@ -3,34 +3,32 @@
 
 use glam::DVec3;
 
-use vps::generate::signed_distance::signed_distances;
 use vps::haptics::simulation::{MassProperties, Simulation, SimulationParams, Step};
-use vps::{pointshell, shapes, voxelize, CachedVoxmap, Mesh, Pointshell, Pose, Triangle, VoxelizeParams, LEAF_SIZE};
+use vps::{shapes, CachedVoxmap, Pointshell, Pose};
 
-/// The voxmap, with distances, of `triangles` at voxel size `s` with 5 layers.
-fn static_map(triangles: Vec<Triangle>, s: f64) -> CachedVoxmap {
-    let mesh = Mesh::from_triangles("static", triangles).unwrap();
-    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(s, 5)).unwrap();
-    let distances = signed_distances(&mesh, &vm);
-    CachedVoxmap::in_memory(vm.with_distances(distances))
-}
-
-/// The pointshell of `triangles` at voxel size `s`.
-fn shell_of(triangles: Vec<Triangle>, s: f64) -> Pointshell {
-    let mesh = Mesh::from_triangles("moving", triangles).unwrap();
-    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(s, 5)).unwrap();
-    pointshell(&mesh, &vm, LEAF_SIZE).unwrap().0
-}
+mod common;
+use common::contact::{moving_shell, static_voxmap};
 
 /// Voxel size 0.1: the plane's top at z = 0, 6 × 6; a ball of radius 0.5 (pointshell voxels of
 /// 0.05).
 fn ball_over_plane() -> (f64, CachedVoxmap, Pointshell) {
     let s = 0.1;
-    let plane = static_map(
+    let plane = static_voxmap(
         shapes::cuboid(DVec3::new(-3.0, -3.0, -1.0), DVec3::new(3.0, 3.0, 0.0)),
         s,
     );
-    (s, plane, shell_of(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05))
+    (s, plane, moving_shell(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05))
+}
+
+/// Voxel size 0.1: a wall 2 voxels thick, its faces at x = 0 and x = 0.2 on voxel faces; the
+/// ball of [`ball_over_plane`].
+fn ball_before_wall() -> (f64, CachedVoxmap, Pointshell) {
+    let s = 0.1;
+    let wall = static_voxmap(
+        shapes::cuboid(DVec3::new(0.0, -3.0, -3.0), DVec3::new(2.0 * s, 3.0, 3.0)),
+        s,
+    );
+    (s, wall, moving_shell(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05))
 }
 
 fn at(x: f64, y: f64, z: f64) -> Pose {
@@ -51,12 +49,7 @@ fn posed<'a>(shell: &'a Pointshell, pose: &Pose) -> impl Iterator<Item = DVec3> 
 /// the wall's middle), and the device is pulled back.
 #[test]
 fn a_device_pushed_through_a_thin_wall_at_speed_leaves_the_object_on_the_near_side() {
-    let s = 0.1;
-    let wall = static_map(
-        shapes::cuboid(DVec3::new(0.0, -3.0, -3.0), DVec3::new(2.0 * s, 3.0, 3.0)),
-        s,
-    );
-    let ball = shell_of(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
+    let (s, wall, ball) = ball_before_wall();
     let body = MassProperties::of_shell(&ball, 1.0);
     let params = SimulationParams::for_body(&body);
     let mut sim = Simulation::new(&wall, &ball, body, params, at(-1.0, 0.0, 0.0)).unwrap();
@@ -138,11 +131,11 @@ fn an_object_pulled_onto_a_plane_comes_to_rest() {
 fn a_box_pushed_along_a_plane_slides_with_a_smooth_force() {
     let s = 0.1;
     let top = 0.037;
-    let plane = static_map(
+    let plane = static_voxmap(
         shapes::cuboid(DVec3::new(-5.0, -5.0, -1.0), DVec3::new(5.0, 5.0, top)),
         s,
     );
-    let cube = shell_of(shapes::cuboid(DVec3::splat(-0.4), DVec3::splat(0.4)), 0.05);
+    let cube = moving_shell(shapes::cuboid(DVec3::splat(-0.4), DVec3::splat(0.4)), 0.05);
     let body = MassProperties::of_shell(&cube, 1.0);
     let params = SimulationParams::for_body(&body);
     let turn = glam::DQuat::from_rotation_z(17f64.to_radians());
@@ -243,7 +236,7 @@ struct Insertion {
 
 /// A peg of radius 0.4 and length 2 with its bottom at its frame's origin.
 fn peg_shell() -> Pointshell {
-    shell_of(shapes::cylinder(DVec3::ZERO, 0.4, 2.0, 48), 0.05)
+    moving_shell(shapes::cylinder(DVec3::ZERO, 0.4, 2.0, 48), 0.05)
 }
 
 /// The peg of [`peg_shell`] (pointshell voxels of 0.05), tilted 2° about x, lowered
@@ -252,7 +245,7 @@ fn peg_shell() -> Pointshell {
 /// held there.
 fn insert_peg(hole_radius: f64) -> Insertion {
     let s = 0.1;
-    let plate = static_map(shapes::plate_with_hole(DVec3::ZERO, 2.0, 0.0, 1.0, hole_radius, 64), s);
+    let plate = static_voxmap(shapes::plate_with_hole(DVec3::ZERO, 2.0, 0.0, 1.0, hole_radius, 64), s);
     let peg = peg_shell();
     let body = MassProperties::of_shell(&peg, 1.0);
     let params = SimulationParams::for_body(&body);
@@ -318,12 +311,7 @@ fn a_peg_goes_into_a_wider_hole_and_not_into_a_narrower_one() {
 /// points in another order).
 #[test]
 fn a_step_budget_stops_the_object_short_never_deeper() {
-    let s = 0.1;
-    let wall = static_map(
-        shapes::cuboid(DVec3::new(0.0, -3.0, -3.0), DVec3::new(2.0 * s, 3.0, 3.0)),
-        s,
-    );
-    let ball = shell_of(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
+    let (s, wall, ball) = ball_before_wall();
     let body = MassProperties::of_shell(&ball, 1.0);
     let exact = SimulationParams::for_body(&body);
     let run = |params: SimulationParams| {

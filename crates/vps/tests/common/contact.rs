@@ -115,14 +115,25 @@ pub struct InMemory {
 /// The voxmap of `static_tris` (voxels of `s`, 5 layers, with distances) and the pointshell of
 /// `moving_tris` (voxels of `ps`).
 pub fn in_memory(static_tris: Vec<Triangle>, s: f64, moving_tris: Vec<Triangle>, ps: f64) -> InMemory {
-    let mesh = Mesh::from_triangles("static", static_tris).unwrap();
+    InMemory {
+        voxmap: static_voxmap(static_tris, s),
+        shell: moving_shell(moving_tris, ps),
+    }
+}
+
+/// The voxmap of `triangles` (voxels of `s`, 5 layers, with distances), in memory.
+pub fn static_voxmap(triangles: Vec<Triangle>, s: f64) -> CachedVoxmap {
+    let mesh = Mesh::from_triangles("static", triangles).unwrap();
     let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(s, 5)).unwrap();
     let distances = signed_distances(&mesh, &vm);
-    let voxmap = CachedVoxmap::in_memory(vm.with_distances(distances));
-    let moving = Mesh::from_triangles("moving", moving_tris).unwrap();
+    CachedVoxmap::in_memory(vm.with_distances(distances))
+}
+
+/// The pointshell of `triangles` (voxels of `ps`).
+pub fn moving_shell(triangles: Vec<Triangle>, ps: f64) -> Pointshell {
+    let moving = Mesh::from_triangles("moving", triangles).unwrap();
     let (vm, _) = voxelize(&moving, &VoxelizeParams::new(ps, 5)).unwrap();
-    let (shell, _) = pointshell(&moving, &vm, LEAF_SIZE).unwrap();
-    InMemory { voxmap, shell }
+    pointshell(&moving, &vm, LEAF_SIZE).unwrap().0
 }
 
 /// [`assembly`] with distances and the [`moving_torus`], built once per test binary.
