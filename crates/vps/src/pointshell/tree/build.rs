@@ -30,9 +30,10 @@ pub(super) struct Item {
 /// for nodes of at least 4096 points) and the result does not depend on the number of threads.
 ///
 /// Each node's sphere costs O(its points), so the build is O(n log n): the centre is that of the
-/// minimal sphere of a small core set — the extreme points along x, y and z, grown by the
-/// farthest point from the current centre a few times, Bădoiu–Clarkson style, each step one
-/// pass. When the core set's sphere holds every point it is the minimal sphere; when the steps
+/// minimal sphere of a small core set — the extreme points along x, y and z (for nodes of at
+/// most 64 points, the leaves and the levels just above them, only the two along the box's
+/// longest side), grown by the farthest point from the current centre a few times,
+/// Bădoiu–Clarkson style, each step one pass. When the core set's sphere holds every point it is the minimal sphere; when the steps
 /// run out first, the bounding box's centre and the centroid are tried too, and the centre
 /// whose farthest point is nearest wins. The radius is that farthest distance measured in `f32`
 /// from the stored `f32` centre, then raised by a few ulps, so that containment holds when

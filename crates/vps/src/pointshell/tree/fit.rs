@@ -215,6 +215,9 @@ fn centroid(items: &[Item]) -> Vec3 {
 /// items' coordinates.
 pub(super) fn fit(items: &[Item], cols: &mut Columns) -> Fit {
     let len = items.len();
+    if len <= SMALL_NODE {
+        return fit_small(items);
+    }
     let blocks = len.div_ceil(BLOCK);
     // Pass 1, block by block: the bounding box, and each block's, and the columns for the
     // passes after it.
@@ -256,38 +259,15 @@ pub(super) fn fit(items: &[Item], cols: &mut Columns) -> Fit {
             core_len += 1;
         }
     }
-    let mut ball = core.ball();
-
-    // Pass 2: the farthest point from the core ball's centre.
-    let core_start = ball.center.as_vec3();
-    let f2 = farthest_by_block(p, core_start, block_far);
-    let (mut best, mut best_far2) = (core_start, f2);
-
-    // Core-set steps: add the farthest point from the core ball's centre and take the new core
-    // set's minimal ball. Each step's ball is at least as large as the last and approaches the
-    // minimal sphere of all points from below, while its farthest point approaches it from above.
-    let (mut core_centre, mut core_far2) = (core_start, f2);
-    let mut converged = false;
-    for step in 0..=CORE_SET_STEPS {
-        // The farthest point inside the core ball (up to f32 rounding of the centre) means the
-        // core ball already holds everything: it is the minimal sphere. Otherwise it is away
-        // from the centre (`core_far2 > 0`), so it exists.
-        if f64::from(core_far2).sqrt() <= ball.radius * (1.0 + 1e-6) {
-            converged = true;
-            break;
-        }
-        if step == CORE_SET_STEPS {
-            break;
-        }
-        let core_far = first_at(p, core_centre, core_far2, block_far);
-        core.push(items[core_far].p.as_dvec3());
-        ball = core.ball();
-        core_centre = ball.center.as_vec3();
-        core_far2 = farthest_by_block(p, core_centre, block_far);
-        if core_far2 < best_far2 {
-            (best, best_far2) = (core_centre, core_far2);
-        }
-    }
+    // Pass 2 and the core-set steps.
+    let (mut best, mut best_far2, converged) = refine(
+        &mut core,
+        CORE_SET_STEPS,
+        items,
+        block_far,
+        |c, blocks| farthest_by_block(p, c, blocks),
+        |c, far2, blocks| first_at(p, c, far2, blocks),
+    );
     // Short of the minimal sphere, two more cheap centres may still do better: the bounding
     // box's centre and the centroid. Once the core ball holds every point it is minimal, and
     // they cannot, so their passes are skipped.
@@ -305,10 +285,7 @@ pub(super) fn fit(items: &[Item], cols: &mut Columns) -> Fit {
         }
     }
 
-    // sqrt is correctly rounded and monotonic, so sqrt(max d²) is the largest f32 `length()`;
-    // the bump of a few ulps covers re-checks by `length_squared() <= radius²` and by other
-    // roundings of the same distance; the absolute term only matters for subnormal radii.
-    let radius = best_far2.sqrt() * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE;
+    let radius = padded_radius(best_far2);
     let split_axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
     } else if extent.y >= extent.z {
@@ -321,4 +298,128 @@ pub(super) fn fit(items: &[Item], cols: &mut Columns) -> Fit {
         radius,
         split_axis,
     }
+}
+
+/// Nodes of at most this many points take [`fit_small`]: the leaves and the two levels above
+/// them, more than seven nodes in eight, where a node's fixed costs outweigh its passes.
+pub(super) const SMALL_NODE: usize = BLOCK;
+
+/// Core-set steps of [`fit_small`], which starts from two points rather than six.
+const SMALL_STEPS: usize = 12;
+
+/// [`fit`] for a node of at most [`SMALL_NODE`] points, with the same result contract: the
+/// points are copied to columns on the stack in one pass that also finds the box and its first
+/// extreme points, and the core set starts from the two extremes along the box's longest
+/// side, whose diametral ball needs no solve. Leaves are small patches of surface, whose
+/// minimal sphere is pinned by two to four points: starting from six made every leaf pay for a
+/// Welzl solve on points that mostly do not matter (measured: that start was a third of a
+/// leaf's time).
+fn fit_small(items: &[Item]) -> Fit {
+    let len = items.len();
+    debug_assert!((1..=SMALL_NODE).contains(&len));
+    let mut cols = [[0.0f32; SMALL_NODE]; 3];
+    let (mut lo, mut hi) = (items[0].p, items[0].p);
+    let (mut arg_lo, mut arg_hi) = ([0usize; 3], [0usize; 3]);
+    for (i, it) in items.iter().enumerate() {
+        let p = it.p.to_array();
+        for a in 0..3 {
+            cols[a][i] = p[a];
+            if p[a] < lo[a] {
+                lo[a] = p[a];
+                arg_lo[a] = i;
+            }
+            if p[a] > hi[a] {
+                hi[a] = p[a];
+                arg_hi[a] = i;
+            }
+        }
+    }
+    let p: [&[f32]; 3] = [&cols[0][..len], &cols[1][..len], &cols[2][..len]];
+    let extent = hi - lo;
+    let split_axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mut core = reference::GrowingBall::<{ 2 + SMALL_STEPS }>::new();
+    core.push(items[arg_lo[split_axis]].p.as_dvec3());
+    if arg_hi[split_axis] != arg_lo[split_axis] {
+        core.push(items[arg_hi[split_axis]].p.as_dvec3());
+    }
+    let (mut best, mut best_far2, converged) = refine(
+        &mut core,
+        SMALL_STEPS,
+        items,
+        &mut [],
+        |c, _| farthest(p, c),
+        |c, far2, _| {
+            (0..len)
+                .find(|&i| dist2(p[0][i], p[1][i], p[2][i], c) == far2)
+                .expect("the largest distance is attained")
+        },
+    );
+    if !converged {
+        for c in [lo * 0.5 + hi * 0.5, centroid(items)] {
+            let f = farthest(p, c);
+            if f < best_far2 {
+                (best, best_far2) = (c, f);
+            }
+        }
+    }
+    Fit {
+        center: best,
+        radius: padded_radius(best_far2),
+        split_axis,
+    }
+}
+
+/// The radius for a largest squared distance `far2`: sqrt is correctly rounded and monotonic,
+/// so sqrt(max d²) is the largest f32 `length()`; the bump of a few ulps covers re-checks by
+/// `length_squared() <= radius²` and by other roundings of the same distance; the absolute
+/// term only matters for subnormal radii.
+fn padded_radius(far2: f32) -> f32 {
+    far2.sqrt() * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE
+}
+
+/// The core-set steps, from the points already in `core`: add the farthest point from the core
+/// ball's centre and take the new core set's minimal ball, at most `steps` times. Each step's
+/// ball is at least as large as the last and approaches the minimal sphere of all points from
+/// below, while its farthest point approaches it from above. Returns the centre with the
+/// nearest farthest point, that squared distance, and whether the core ball came to hold every
+/// point (it is then the minimal sphere). `farthest_from(c, blocks)` is the largest squared
+/// distance from `c` (noting per-block maxima in `blocks` if it uses them) and
+/// `first_at(c, far2, blocks)` the first point at that distance.
+fn refine<const N: usize>(
+    core: &mut reference::GrowingBall<N>,
+    steps: usize,
+    items: &[Item],
+    blocks: &mut [f32],
+    farthest_from: impl Fn(Vec3, &mut [f32]) -> f32,
+    first_at: impl Fn(Vec3, f32, &[f32]) -> usize,
+) -> (Vec3, f32, bool) {
+    let mut ball = core.ball();
+    let mut centre = ball.center.as_vec3();
+    let mut far2 = farthest_from(centre, blocks);
+    let (mut best, mut best_far2) = (centre, far2);
+    for step in 0..=steps {
+        // The farthest point inside the core ball (up to f32 rounding of the centre) means the
+        // core ball already holds everything: it is the minimal sphere. Otherwise it is away
+        // from the centre (`far2 > 0`), so it exists.
+        if f64::from(far2).sqrt() <= ball.radius * (1.0 + 1e-6) {
+            return (best, best_far2, true);
+        }
+        if step == steps {
+            break;
+        }
+        core.push(items[first_at(centre, far2, blocks)].p.as_dvec3());
+        ball = core.ball();
+        centre = ball.center.as_vec3();
+        far2 = farthest_from(centre, blocks);
+        if far2 < best_far2 {
+            (best, best_far2) = (centre, far2);
+        }
+    }
+    (best, best_far2, false)
 }
