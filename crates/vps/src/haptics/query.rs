@@ -47,12 +47,12 @@ const MIN_NODE_SECONDS: f64 = 10e-9;
 
 /// Rounding margin for culling: a sphere's radius, in voxels, is inflated by this factor and
 /// term, which covers the `f32` containment check of the tree and the `f64` posing.
-const CULL_RELATIVE_MARGIN: f64 = 1e-5;
-const CULL_ABSOLUTE_MARGIN: f64 = 1e-6;
+pub(super) const CULL_RELATIVE_MARGIN: f64 = 1e-5;
+pub(super) const CULL_ABSOLUTE_MARGIN: f64 = 1e-6;
 
 /// What one look-up proves of a sphere.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Class {
+pub(super) enum Class {
     /// No point of it lies in a voxel ≥ 0.
     Outside,
     /// Every point of it lies in a voxel ≥ 0.
@@ -160,30 +160,30 @@ pub(crate) fn area_weight(n: Vec3) -> f64 {
 }
 
 /// A pose, the voxmap's grid and the stiffness folded into what each point needs.
-struct Frame<'a> {
-    voxmap: &'a CachedVoxmap,
-    nodes: &'a [SphereNode],
-    points: &'a [Vec3],
-    normals: &'a [Vec3],
+pub(super) struct Frame<'a> {
+    pub(super) voxmap: &'a CachedVoxmap,
+    pub(super) nodes: &'a [SphereNode],
+    pub(super) points: &'a [Vec3],
+    pub(super) normals: &'a [Vec3],
     rot: DMat3,
     /// `R · origin` of the pointshell: lever arms are `R · p + lever0`.
     lever0: DVec3,
     /// Grid units of a lever arm `r` are `r / s + units0`.
     units0: DVec3,
-    inv_s: f64,
-    s: f64,
+    pub(super) inv_s: f64,
+    pub(super) s: f64,
     k: f64,
     dims: DVec3,
     layers: i32,
     outside: i8,
     /// Interpolated distances (not layers) measure the penetration.
-    distance: bool,
+    pub(super) distance: bool,
     /// The clamp of the distances, in voxels.
     reach: f64,
 }
 
 impl<'a> Frame<'a> {
-    fn new<S: PointshellData + ?Sized>(
+    pub(super) fn new<S: PointshellData + ?Sized>(
         voxmap: &'a CachedVoxmap,
         shell: &'a S,
         pose: &Pose,
@@ -226,7 +226,7 @@ impl<'a> Frame<'a> {
 
     /// Lever arm (world offset from the pose origin) and grid units of a pointshell point.
     #[inline]
-    fn place(&self, p: Vec3) -> (DVec3, DVec3) {
+    pub(super) fn place(&self, p: Vec3) -> (DVec3, DVec3) {
         let r = self.rot * p.as_dvec3() + self.lever0;
         (r, r * self.inv_s + self.units0)
     }
@@ -237,6 +237,47 @@ impl<'a> Frame<'a> {
     fn penetration(&self, value: i8, v: [u32; 3], u: DVec3, n_world: DVec3) -> f64 {
         let centre = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64) + 0.5;
         self.s * (value as f64 + (centre - u).dot(n_world))
+    }
+
+    /// The penetration of one point of normal `n` (in the pointshell's frame), as
+    /// [`Frame::test_points`] measures it (the same operations, so the same bits; in contact
+    /// when positive), and the value of the voxel it lies in (`None` beyond the grid).
+    #[inline]
+    pub(super) fn point_depth(&self, cur: &mut Cursor<'_>, p: Vec3, n: Vec3) -> (f64, Option<i8>) {
+        let (_, u) = self.place(p);
+        let Some((value, v)) = cur.in_grid(u) else {
+            return (0.0, None);
+        };
+        let d = if self.distance {
+            if value <= -2 {
+                0.0
+            } else {
+                self.s * cur.distance_at(u)
+            }
+        } else if value < 0 {
+            0.0
+        } else {
+            self.penetration(value, v, u, self.rot * n.as_dvec3())
+        };
+        (d, Some(value))
+    }
+
+    /// Voxels a point in a voxel of value `-k` must move before it can be in contact: no voxel
+    /// that can hold a point in contact is nearer (see [`Frame::classify`]).
+    #[inline]
+    pub(super) fn free_travel(&self, value: i8) -> i32 {
+        -(value as i32) - self.reach_voxels()
+    }
+
+    /// How far beyond its own voxel a point's penetration reads: one voxel for the layers,
+    /// two for an interpolated distance (its eight voxel centres).
+    #[inline]
+    fn reach_voxels(&self) -> i32 {
+        if self.distance {
+            2
+        } else {
+            1
+        }
     }
 
     /// Test points `range`, adding to `acc` in index order.
@@ -333,6 +374,13 @@ impl<'a> Frame<'a> {
     fn classify(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<Class, StorageError> {
         let (_, u) = self.place(node.center());
         let r = node.radius as f64 * self.inv_s * (1.0 + CULL_RELATIVE_MARGIN) + CULL_ABSOLUTE_MARGIN;
+        self.classify_at(cur, u, r)
+    }
+
+    /// [`Frame::classify`] of the sphere of radius `r` voxels (margins included) centred at
+    /// grid units `u`.
+    #[inline]
+    pub(super) fn classify_at(&self, cur: &mut Cursor<'_>, u: DVec3, r: f64) -> Result<Class, StorageError> {
         let beyond = (DVec3::ZERO - u).max(u - self.dims).max(DVec3::ZERO);
         if beyond != DVec3::ZERO {
             return Ok(if beyond.length() > r {
@@ -347,7 +395,7 @@ impl<'a> Frame<'a> {
         cur.check()?;
         let value = value as i32;
         // An interpolated distance reads one voxel further (see `Cursor::distance_at`).
-        let reach = if self.distance { 2 } else { 1 };
+        let reach = self.reach_voxels();
         if value < 0 && r < (-value - reach) as f64 {
             Ok(Class::Outside)
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {

@@ -36,7 +36,7 @@ use std::time::{Duration, Instant};
 use glam::{DMat3, DQuat, DVec3};
 
 use super::query::area_weight;
-use super::{contact, CachedVoxmap, Contact, ContactParams, HapticsError};
+use super::{contact, first_too_deep, CachedVoxmap, Contact, ContactParams, HapticsError};
 use crate::geometry::Pose;
 use crate::pointshell::PointshellData;
 
@@ -232,6 +232,12 @@ const MAX_SUBSTEPS: u32 = 64;
 /// or less; when they run out first, the object stops at the deepest pose found within the
 /// allowed depth (short of it, never past it).
 const BISECTIONS: u32 = 8;
+
+/// When at least this many sub-steps follow the first, the first of them too deep is found by
+/// one swept walk ([`first_too_deep`]) rather than a query each. The walk grows every sphere
+/// by the motion, so it costs several queries: on the built-in pair it saved time from about
+/// eight sub-steps on and lost some at four or five (`docs/PERFORMANCE.md`).
+const SWEEP_MIN_SUBSTEPS: u32 = 6;
 /// The search stops at a pose this deep, as a fraction of the allowed depth, or deeper.
 const CLOSE_ENOUGH: f64 = 0.9;
 
@@ -501,24 +507,57 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             queries: 0,
             out_of_time: false,
         };
-        for j in 1..=n {
-            let (lo, hi) = ((j - 1) as f64 / n as f64, j as f64 / n as f64);
-            let pose = at(hi)?;
-            done.queries += 1;
-            let Some(c) = self.checked(&pose, deadline)? else {
-                done.out_of_time = true;
-                return Ok(done);
-            };
-            if c.max_penetration <= limit {
-                (done.pose, done.contact, done.fraction) = (pose, c, hi * scale);
-                continue;
+        let mut known_too_deep = None;
+        let mut j = 0;
+        while j < n {
+            j += 1;
+            // Past the first sub-step (which, when the object is held against a wall, is the
+            // one too deep), without a time budget and with enough sub-steps left, the first
+            // one too deep and its depth come from one swept walk: the same answers as querying
+            // each in turn. Only the sub-step before it is then queried, for its contact.
+            if j == 2 && n > SWEEP_MIN_SUBSTEPS && deadline.is_none() {
+                let poses = (j..=n)
+                    .map(|i| at(i as f64 / n as f64))
+                    .collect::<Result<Vec<_>, _>>()?;
+                done.queries += 1;
+                match first_too_deep(self.voxmap, self.shell, &poses, &self.params.contact, limit)? {
+                    // Every sub-step within the limit: the loop queries the last one.
+                    None => j = n,
+                    Some(stop) => {
+                        j += stop.pose as u32;
+                        known_too_deep = Some(stop.max_penetration);
+                        if stop.pose > 0 {
+                            let pose = poses[stop.pose - 1];
+                            done.queries += 1;
+                            let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
+                            (done.pose, done.contact, done.fraction) = (pose, c, (j - 1) as f64 / n as f64 * scale);
+                        }
+                    }
+                }
             }
+            let (lo, hi) = ((j - 1) as f64 / n as f64, j as f64 / n as f64);
+            let too_deep = match known_too_deep.take() {
+                Some(depth) => depth,
+                None => {
+                    let pose = at(hi)?;
+                    done.queries += 1;
+                    let Some(c) = self.checked(&pose, deadline)? else {
+                        done.out_of_time = true;
+                        return Ok(done);
+                    };
+                    if c.max_penetration <= limit {
+                        (done.pose, done.contact, done.fraction) = (pose, c, hi * scale);
+                        continue;
+                    }
+                    c.max_penetration
+                }
+            };
             // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
             // within it, by false position (the depth is nearly linear along a sub-step), kept
             // off the bracket's ends so the bracket always shrinks; done once within the last
             // tenth of the allowed depth.
             let (mut ok, mut bad) = (lo, hi);
-            let (mut depth_ok, mut depth_bad) = (done.contact.max_penetration, c.max_penetration);
+            let (mut depth_ok, mut depth_bad) = (done.contact.max_penetration, too_deep);
             for _ in 0..BISECTIONS {
                 if depth_ok >= CLOSE_ENOUGH * limit {
                     break;
