@@ -226,3 +226,32 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
         got.force
     );
 }
+
+/// Far beyond the layers but inside the grid (between two blocks 10 units apart, voxels of 0.1,
+/// 5 layers), the pointshell's root sphere is culled by the stored bricks around it, which its
+/// centre's value alone cannot do (it proves only 4 voxels of clearance for a sphere of 11);
+/// nearer, smaller spheres are; and the answer is always the brute force's.
+#[test]
+fn spheres_far_beyond_the_layers_are_culled_by_the_stored_bricks() {
+    let mut blocks = shapes::cuboid(DVec3::new(-6.0, -1.0, -1.0), DVec3::new(-5.0, 1.0, 1.0));
+    blocks.extend(shapes::cuboid(DVec3::new(5.0, -1.0, -1.0), DVec3::new(6.0, 1.0, 1.0)));
+    let p = pair(blocks, 0.1, common::contact::moving_torus(), 0.06);
+    let root = p.shell.tree.nodes[0];
+    assert!(root.radius > 1.0, "root radius {}", root.radius);
+    let params = vps::ContactParams::default();
+    // Clear of the blocks' bricks by more than the root's reach, near them, in contact.
+    for (x, case) in [(0.0, "far"), (1.5, "far"), (3.0, "near"), (4.5, "deep")] {
+        let pose = vps::Pose::new([x, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let fast = vps::contact(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        let slow = vps::haptics::contact_brute_force(&p.voxmap, &p.shell, &pose, &params).unwrap();
+        common::contact::assert_same(&fast, &slow, &format!("x = {x}"));
+        match case {
+            "deep" => assert!(fast.points_in_contact > 0, "x = {x}: the torus reaches the block"),
+            "far" => {
+                assert_eq!(fast.nodes_tested, 1, "x = {x}: the root alone is tested");
+                assert_eq!(fast.points_tested, 0);
+            }
+            _ => assert!(fast.nodes_culled > 0 && fast.points_in_contact == 0, "x = {x}"),
+        }
+    }
+}

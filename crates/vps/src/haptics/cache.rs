@@ -13,7 +13,7 @@
 //! hold their brick by `Arc`, so emptying a shard never invalidates a query in flight.
 
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, RwLock};
+use std::sync::{Arc, Mutex, OnceLock, RwLock};
 
 use glam::DVec3;
 use rustc_hash::FxHashMap;
@@ -23,8 +23,10 @@ use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
 use crate::voxmap::{far_distance, outside_value, BrickSlot, StoredBrick, Voxmap, VoxmapCounts};
 use distance::{Apron, APRON_SLOTS};
+use occupancy::Occupancy;
 
 mod distance;
+mod occupancy;
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
@@ -48,12 +50,13 @@ pub struct CacheStats {
     pub entries: u64,
 }
 
-/// Entries of a cursor's own table: 8 × 8 × 16 bricks (64 × 64 × 128 voxels) around a contact
-/// patch, its points and the centres of the tree nodes above it. Measured on the built-in
-/// haptics bench (10⁶ points, 10⁹ voxels): 256 entries sent 23% of brick switches to the shared
-/// map, 4096 sent 5%, for no measurable change in latency.
-const CURSOR_SLOTS: usize = 1024;
-const _: () = assert!(CURSOR_SLOTS == 8 * 8 * 16);
+/// Entries of a cursor's own table: 16 × 16 × 16 bricks (128³ voxels) around a contact patch,
+/// its points and the centres of the tree nodes above it. Measured on the built-in haptics
+/// bench with 10⁶ points: 256 entries sent 23% of brick switches to the shared map, 4096 sent
+/// 5%. With 10⁵ points (a shell 245 voxels of the map across), 1024 entries sent 22% and 4096
+/// 9%, and the query's p50 fell by 5–10% (three runs each, `docs/PERFORMANCE.md`).
+const CURSOR_SLOTS: usize = 4096;
+const _: () = assert!(CURSOR_SLOTS == 16 * 16 * 16);
 
 /// Where the bricks come from.
 #[derive(Debug)]
@@ -85,6 +88,8 @@ pub struct CachedVoxmap {
     /// Cursor tables not in use. A cursor takes one and gives it back, so the bricks a haptic
     /// loop touches stay in its table from one query to the next.
     tables: Mutex<Vec<Box<Table>>>,
+    /// Which bricks are stored, at every scale: built by the first cursor.
+    occupancy: OnceLock<Option<Occupancy>>,
 }
 
 /// Most idle cursor tables kept: more than the threads that query at once.
@@ -158,6 +163,7 @@ impl CachedVoxmap {
             hits: AtomicU64::new(0),
             cursor_hits: AtomicU64::new(0),
             tables: Mutex::new(Vec::new()),
+            occupancy: OnceLock::new(),
         }
     }
 
@@ -268,6 +274,20 @@ impl CachedVoxmap {
             .collect()
     }
 
+    /// Which bricks are stored (`None` for a grid too large, or a file whose index cannot be
+    /// read: the queries then cull by the layers alone).
+    fn occupancy(&self) -> Option<&Occupancy> {
+        self.occupancy
+            .get_or_init(|| {
+                let grid = *self.grid();
+                let mut stored = Vec::new();
+                self.for_each_stored_key(|key| stored.push(grid.brick_coords(key)))
+                    .ok()?;
+                Occupancy::new(grid.brick_dims(), stored)
+            })
+            .as_ref()
+    }
+
     /// A cursor for a run of nearby look-ups from one thread.
     pub fn cursor(&self) -> Cursor<'_> {
         Cursor::new(self)
@@ -326,6 +346,7 @@ pub struct Cursor<'a> {
     switches: u64,
     shared: u64,
     error: Option<StorageError>,
+    occupancy: Option<&'a Occupancy>,
 }
 
 impl Drop for Cursor<'_> {
@@ -378,6 +399,7 @@ impl<'a> Cursor<'a> {
             switches: 0,
             shared: 0,
             error: None,
+            occupancy: voxmap.occupancy(),
         }
     }
 
@@ -429,8 +451,8 @@ impl<'a> Cursor<'a> {
     fn switch_to(&mut self, b: [u32; 3]) {
         let n = self.brick_dims;
         let key = (b[0] as u64 * n[1] + b[1] as u64) * n[2] + b[2] as u64;
-        // Direct-mapped by brick coordinates: any 8 × 8 × 16 bricks fit without clashes.
-        let at = (b[0] as usize & 7) << 7 | (b[1] as usize & 7) << 4 | (b[2] as usize & 15);
+        // Direct-mapped by brick coordinates: any 16 × 16 × 16 bricks fit without clashes.
+        let at = (b[0] as usize & 15) << 8 | (b[1] as usize & 15) << 4 | (b[2] as usize & 15);
         self.switches += 1;
         let Some(table) = &mut self.table else { return };
         if table.keys[at] != key {
@@ -457,6 +479,21 @@ impl<'a> Cursor<'a> {
         }
         self.last_brick = b;
         self.last_at = at;
+    }
+
+    /// Whether no brick within `h` voxels of voxel `v` (in the grid) along every axis is
+    /// stored; false when that is not known. In a box of unstored bricks every voxel has a
+    /// tile's value: around a voxel outside, all are far outside, since an inside tile is never
+    /// within the layers of an outside one.
+    #[inline]
+    pub(crate) fn clear_around(&self, v: [u32; 3], h: u32) -> bool {
+        let Some(occupancy) = self.occupancy else {
+            return false;
+        };
+        let lo = v.map(|c| u64::from(c.saturating_sub(h)) >> BRICK_SHIFT);
+        let hi: [u64; 3] =
+            std::array::from_fn(|a| (u64::from(v[a]) + u64::from(h)).min(u64::from(self.dims[a]) - 1) >> BRICK_SHIFT);
+        !occupancy.any_stored(lo, hi)
     }
 
     /// The value of voxel `v` (which may lie beyond the grid: then far outside).

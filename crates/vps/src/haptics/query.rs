@@ -48,6 +48,10 @@ const MIN_NODE_SECONDS: f64 = 10e-9;
 /// Rounding margin for culling: a sphere's radius, in voxels, is inflated by this factor and
 /// term, which covers the `f32` containment check of the tree and the `f64` posing.
 pub(super) const CULL_RELATIVE_MARGIN: f64 = 1e-5;
+
+/// Spheres up to this radius (voxels) are tried against the stored bricks around them when
+/// their centre's value does not cull them; larger ones are left to their children.
+const MAX_CLEAR_RADIUS: f64 = 1e6;
 pub(super) const CULL_ABSOLUTE_MARGIN: f64 = 1e-6;
 
 /// What one look-up proves of a sphere.
@@ -389,7 +393,7 @@ impl<'a> Frame<'a> {
                 Class::Straddles
             });
         }
-        let Some((value, _)) = cur.in_grid(u) else {
+        let Some((value, v)) = cur.in_grid(u) else {
             return Ok(Class::Straddles);
         };
         cur.check()?;
@@ -397,6 +401,10 @@ impl<'a> Frame<'a> {
         // An interpolated distance reads one voxel further (see `Cursor::distance_at`).
         let reach = self.reach_voxels();
         if value < 0 && r < (-value - reach) as f64 {
+            Ok(Class::Outside)
+        } else if value < 0 && r < MAX_CLEAR_RADIUS && cur.clear_around(v, r as u32 + reach as u32) {
+            // Beyond the layers: no stored brick within the sphere's reach, so every voxel
+            // there is far outside.
             Ok(Class::Outside)
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)

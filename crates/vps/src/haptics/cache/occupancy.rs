@@ -1,0 +1,139 @@
+//! Which bricks of a voxmap are stored, at every power-of-two scale: one bit per brick, one per
+//! 2³ bricks, one per 4³, and so on, so that "is any brick of this box stored?" takes at most
+//! 27 bit tests. The contact query uses it to cull spheres far beyond the layers, where one
+//! look-up at a sphere's centre proves only that the surface is more than the layers away.
+
+/// The stored bricks, as bit sets from single bricks up to one cell for the whole grid.
+#[derive(Debug)]
+pub(super) struct Occupancy {
+    levels: Vec<Level>,
+}
+
+/// One scale: cell `c` covers bricks `c · 2^level ..= c · 2^level + 2^level - 1` along each axis.
+#[derive(Debug)]
+struct Level {
+    dims: [u64; 3],
+    bits: Vec<u64>,
+}
+
+impl Level {
+    fn new(dims: [u64; 3]) -> Level {
+        let cells = dims.iter().product::<u64>() as usize;
+        Level {
+            dims,
+            bits: vec![0; cells.div_ceil(64)],
+        }
+    }
+
+    #[inline]
+    fn index(&self, c: [u64; 3]) -> usize {
+        ((c[0] * self.dims[1] + c[1]) * self.dims[2] + c[2]) as usize
+    }
+
+    fn set(&mut self, c: [u64; 3]) {
+        let i = self.index(c);
+        self.bits[i / 64] |= 1 << (i % 64);
+    }
+
+    #[inline]
+    fn get(&self, c: [u64; 3]) -> bool {
+        let i = self.index(c);
+        self.bits[i / 64] >> (i % 64) & 1 == 1
+    }
+}
+
+/// Grids of more bricks than this get no occupancy (its finest level would pass 128 MiB), and
+/// are culled by the layers alone.
+pub(super) const MAX_BRICKS: u64 = 1 << 30;
+
+impl Occupancy {
+    /// The occupancy of a grid of `brick_dims` bricks whose stored bricks are `stored` (brick
+    /// coordinates, each within the grid), or `None` for a grid of more than [`MAX_BRICKS`].
+    pub(super) fn new(brick_dims: [u32; 3], stored: impl IntoIterator<Item = [u32; 3]>) -> Option<Occupancy> {
+        let dims = brick_dims.map(u64::from);
+        if dims.iter().product::<u64>() > MAX_BRICKS || dims.contains(&0) {
+            return None;
+        }
+        let mut levels = vec![Level::new(dims)];
+        while levels.last().is_some_and(|l| l.dims.iter().any(|&d| d > 1)) {
+            let d = levels.last().expect("one level").dims;
+            levels.push(Level::new(d.map(|x| x.div_ceil(2))));
+        }
+        for b in stored {
+            let b = b.map(u64::from);
+            for (k, level) in levels.iter_mut().enumerate() {
+                level.set(b.map(|x| x >> k));
+            }
+        }
+        Some(Occupancy { levels })
+    }
+
+    /// Whether any brick of the box `lo ..= hi` (brick coordinates, within the grid) is stored.
+    /// The box is looked at on the finest scale where it meets at most three cells along each
+    /// axis, so the answer may be yes for a box that only shares a cell with a stored brick,
+    /// never no for one that holds one.
+    #[inline]
+    pub(super) fn any_stored(&self, lo: [u64; 3], hi: [u64; 3]) -> bool {
+        // The finest level where the box meets at most three cells along each axis: coarser
+        // cells would answer for much more than the box (a level where it meets two can have
+        // cells twice its size).
+        let mut k = 0;
+        while k + 1 < self.levels.len() && (0..3).any(|a| (hi[a] >> k) - (lo[a] >> k) >= 3) {
+            k += 1;
+        }
+        let level = &self.levels[k];
+        let (lo, hi) = (lo.map(|x| x >> k), hi.map(|x| x >> k));
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if level.get([x, y, z]) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::SplitMix;
+
+    /// Against the definition, on random sparse sets and random boxes.
+    #[test]
+    fn any_stored_never_misses_a_stored_brick() {
+        let mut rng = SplitMix(5);
+        for _ in 0..40 {
+            let dims = [
+                1 + rng.below(40) as u32,
+                1 + rng.below(40) as u32,
+                1 + rng.below(40) as u32,
+            ];
+            let stored: Vec<[u32; 3]> = (0..rng.below(30))
+                .map(|_| dims.map(|d| rng.below(d as u64) as u32))
+                .collect();
+            let occ = Occupancy::new(dims, stored.iter().copied()).unwrap();
+            let mut empty_found = 0;
+            for _ in 0..300 {
+                let (mut lo, mut hi) = ([0u64; 3], [0u64; 3]);
+                for a in 0..3 {
+                    let (p, q) = (rng.below(dims[a] as u64), rng.below(dims[a] as u64));
+                    (lo[a], hi[a]) = (p.min(q), p.max(q));
+                }
+                let truth = stored
+                    .iter()
+                    .any(|b| (0..3).all(|a| lo[a] <= b[a] as u64 && b[a] as u64 <= hi[a]));
+                let answer = occ.any_stored(lo, hi);
+                assert!(answer || !truth, "missed a stored brick in {lo:?}..={hi:?}");
+                empty_found += (!answer) as u32;
+            }
+            // Useful too: with few stored bricks, most small boxes are found empty.
+            if stored.len() <= 2 && dims.iter().all(|&d| d >= 16) {
+                assert!(empty_found > 0);
+            }
+        }
+        assert!(Occupancy::new([1 << 11, 1 << 11, 1 << 9], std::iter::empty()).is_none());
+    }
+}
