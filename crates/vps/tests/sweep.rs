@@ -1,5 +1,6 @@
-//! `first_too_deep`, the swept check of a motion, against its definition: a contact query at
-//! every pose in turn (the same pose, the same depth there, bit for bit), on random motions of a torus through the test assembly (a ball, a torus,
+//! `sweep`, the swept check of a motion, against its definition: a contact query at every pose
+//! in turn (the same pose, the same depth there, bit for bit, and whether the last pose
+//! touches), on random motions of a torus through the test assembly (a ball, a torus,
 //! a block, a hollow box), with the interpolated distance and with the layers.
 
 mod common;
@@ -7,7 +8,7 @@ mod common;
 use common::contact::{distance_fixture, pose_strategy};
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
-use vps::haptics::{first_too_deep, Penetration, TooDeep};
+use vps::haptics::{sweep, Penetration, Sweep, TooDeep};
 use vps::{contact, ContactParams, Pose};
 
 /// `n` poses from `start`, each moved on by `shift` and turned by `turn` (a rotation vector).
@@ -22,13 +23,20 @@ fn motion(start: &Pose, shift: DVec3, turn: DVec3, n: usize) -> Vec<Pose> {
         .collect()
 }
 
-/// The definition: the first pose whose contact query is deeper than `limit`, and its depth.
-fn by_queries(poses: &[Pose], params: &ContactParams, limit: f64) -> Option<TooDeep> {
+/// The definition: the first pose whose contact query is deeper than `limit`, and its depth;
+/// if none, whether the last pose has points in contact.
+fn by_queries(poses: &[Pose], params: &ContactParams, limit: f64) -> Sweep {
     let d = distance_fixture();
-    poses.iter().enumerate().find_map(|(pose, p)| {
-        let max_penetration = contact(&d.voxmap, &d.shell, p, params).unwrap().max_penetration;
+    let at = |p: &Pose| contact(&d.voxmap, &d.shell, p, params).unwrap();
+    let too_deep = poses.iter().enumerate().find_map(|(pose, p)| {
+        let max_penetration = at(p).max_penetration;
         (max_penetration > limit).then_some(TooDeep { pose, max_penetration })
-    })
+    });
+    let touching_at_end = too_deep.is_none() && poses.last().is_some_and(|p| at(p).points_in_contact > 0);
+    Sweep {
+        too_deep,
+        touching_at_end,
+    }
 }
 
 proptest! {
@@ -50,7 +58,7 @@ proptest! {
             ..ContactParams::default()
         };
         let limit = limit_voxels * d.voxmap.grid().voxel_size;
-        let swept = first_too_deep(&d.voxmap, &d.shell, &poses, &params, limit).unwrap();
+        let swept = sweep(&d.voxmap, &d.shell, &poses, &params, limit).unwrap();
         prop_assert_eq!(swept, by_queries(&poses, &params, limit));
     }
 }
@@ -64,15 +72,24 @@ fn clear_blocked_and_bad_input() {
     // Far above everything, moving sideways: never deeper than anything.
     let high = Pose::new([0.0, 0.0, 20.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let poses = motion(&high, DVec3::new(3.0, 0.0, 0.0), DVec3::ZERO, 10);
-    assert_eq!(first_too_deep(&d.voxmap, &d.shell, &poses, &params, 0.0).unwrap(), None);
+    let clear = sweep(&d.voxmap, &d.shell, &poses, &params, 0.0).unwrap();
+    assert_eq!((clear.too_deep, clear.touching_at_end), (None, false));
     // Through the ball at (-3, 0, 0): stopped, and where the queries stop.
     let before = Pose::new([-3.0, 0.0, 4.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let poses = motion(&before, DVec3::new(0.0, 0.0, -4.0), DVec3::ZERO, 32);
-    let swept = first_too_deep(&d.voxmap, &d.shell, &poses, &params, 0.25 * s).unwrap();
-    assert!(swept.is_some());
+    let swept = sweep(&d.voxmap, &d.shell, &poses, &params, 0.25 * s).unwrap();
+    assert!(swept.too_deep.is_some());
     assert_eq!(swept, by_queries(&poses, &params, 0.25 * s));
-    assert_eq!(first_too_deep(&d.voxmap, &d.shell, &[], &params, 0.0).unwrap(), None);
+    let none = sweep(&d.voxmap, &d.shell, &[], &params, 0.0).unwrap();
+    assert_eq!((none.too_deep, none.touching_at_end), (None, false));
+    // Resting on the ball's top, not deeper than a voxel: no pose too deep, touching at the end.
+    // (The torus's lowest ring point nearest the ball's axis ends 0.025 into the ball.)
+    let resting = Pose::new([-3.0, 0.0, 1.6], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let poses = motion(&resting, DVec3::new(0.0, 0.0, -0.05), DVec3::ZERO, 8);
+    let swept = sweep(&d.voxmap, &d.shell, &poses, &params, s).unwrap();
+    assert_eq!((swept.too_deep, swept.touching_at_end), (None, true));
+    assert_eq!(swept, by_queries(&poses, &params, s));
     for bad in [-1.0, f64::NAN, f64::INFINITY] {
-        assert!(first_too_deep(&d.voxmap, &d.shell, &poses, &params, bad).is_err());
+        assert!(sweep(&d.voxmap, &d.shell, &poses, &params, bad).is_err());
     }
 }

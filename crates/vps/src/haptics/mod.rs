@@ -11,8 +11,8 @@
 //! - With a time budget, [`contact`] refines the tree breadth-first and stops when the budget is
 //!   spent: unrefined spheres stand for their points, and the result carries an error bound
 //!   (Barbič & James 2007).
-//! - [`first_too_deep`] checks a whole motion (a sequence of poses) in one walk: the first pose
-//!   deeper than a limit, as a query at each pose would find it.
+//! - [`sweep`] checks a whole motion (a sequence of poses) in one walk: the first pose deeper
+//!   than a limit, as a query at each pose would find it.
 //! - [`simulation::Simulation`] is the haptic loop around the query: a simulated rigid object
 //!   pulled by the device through a virtual coupling, never pushed through a wall.
 
@@ -26,7 +26,7 @@ pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CA
 // The query takes a pose; callers name it here or as `vps::Pose`.
 pub use crate::geometry::{Pose, PoseError};
 pub use query::{contact, contact_brute_force, Contact, ContactParams, Penetration, BLOCK_POINTS};
-pub use sweep::{first_too_deep, TooDeep};
+pub use sweep::{sweep, Sweep, TooDeep};
 
 use crate::storage::StorageError;
 

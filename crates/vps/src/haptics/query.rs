@@ -266,6 +266,18 @@ impl<'a> Frame<'a> {
         (d, Some(value))
     }
 
+    /// Whether a point of penetration `depth` in a voxel of `value` (from
+    /// [`Frame::point_depth`]) counts in [`Contact::points_in_contact`]: a positive distance,
+    /// or with the layers a voxel `≥ 0`.
+    #[inline]
+    pub(super) fn counts_in_contact(&self, depth: f64, value: Option<i8>) -> bool {
+        if self.distance {
+            depth > 0.0
+        } else {
+            value.is_some_and(|v| v >= 0)
+        }
+    }
+
     /// Voxels a point in a voxel of value `-k` must move before it can be in contact: no voxel
     /// that can hold a point in contact is nearer (see [`Frame::classify`]).
     #[inline]

@@ -36,7 +36,7 @@ use std::time::{Duration, Instant};
 use glam::{DMat3, DQuat, DVec3};
 
 use super::query::area_weight;
-use super::{contact, first_too_deep, CachedVoxmap, Contact, ContactParams, HapticsError};
+use super::{contact, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
 use crate::geometry::Pose;
 use crate::pointshell::PointshellData;
 
@@ -233,8 +233,8 @@ const MAX_SUBSTEPS: u32 = 64;
 /// allowed depth (short of it, never past it).
 const BISECTIONS: u32 = 8;
 
-/// When at least this many sub-steps follow the first, the first of them too deep is found by
-/// one swept walk ([`first_too_deep`]) rather than a query each. The walk grows every sphere
+/// When at least this many sub-steps are left, the first of them too deep is found by one
+/// swept walk ([`sweep`]) rather than a query each. The walk grows every sphere
 /// by the motion, so it costs several queries: on the built-in pair it saved time from about
 /// eight sub-steps on and lost some at four or five (`docs/PERFORMANCE.md`).
 const SWEEP_MIN_SUBSTEPS: u32 = 6;
@@ -508,19 +508,31 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             out_of_time: false,
         };
         let mut known_too_deep = None;
+        // Out of contact, the sweep starts at the first sub-step; in contact, that one is
+        // queried alone first (held against a wall, it is the one too deep).
+        let sweep_from = if at_start.points_in_contact == 0 { 1 } else { 2 };
         let mut j = 0;
         while j < n {
             j += 1;
-            // Past the first sub-step (which, when the object is held against a wall, is the
-            // one too deep), without a time budget and with enough sub-steps left, the first
-            // one too deep and its depth come from one swept walk: the same answers as querying
-            // each in turn. Only the sub-step before it is then queried, for its contact.
-            if j == 2 && n > SWEEP_MIN_SUBSTEPS && deadline.is_none() {
+            // Without a time budget and with enough sub-steps left, the first one too deep and
+            // its depth come from one swept walk: the same answers as querying each in turn.
+            // Only the sub-step before it is then queried, for its contact; and when none is
+            // too deep and nothing touches at the end, the contact there is zero, unqueried.
+            if j == sweep_from && n + 1 - j >= SWEEP_MIN_SUBSTEPS && deadline.is_none() {
                 let poses = (j..=n)
                     .map(|i| at(i as f64 / n as f64))
                     .collect::<Result<Vec<_>, _>>()?;
                 done.queries += 1;
-                match first_too_deep(self.voxmap, self.shell, &poses, &self.params.contact, limit)? {
+                let swept = sweep(self.voxmap, self.shell, &poses, &self.params.contact, limit)?;
+                match swept.too_deep {
+                    None if !swept.touching_at_end => {
+                        let untouched = Contact {
+                            complete: true,
+                            ..Contact::default()
+                        };
+                        (done.pose, done.contact, done.fraction) = (poses[poses.len() - 1], untouched, scale);
+                        return Ok(done);
+                    }
                     // Every sub-step within the limit: the loop queries the last one.
                     None => j = n,
                     Some(stop) => {

@@ -30,20 +30,31 @@ pub struct TooDeep {
     pub max_penetration: f64,
 }
 
+/// What [`sweep`] finds along a motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sweep {
+    /// The first pose deeper than the limit, if any.
+    pub too_deep: Option<TooDeep>,
+    /// With no pose too deep: whether any point is in contact at the last pose (as
+    /// [`Contact::points_in_contact`](super::Contact) counts it). When not, the contact query
+    /// there would give zero force, torque, depth and points in contact.
+    pub touching_at_end: bool,
+}
+
 /// The first of `poses` at which some point of `shell` penetrates deeper than `limit` (world
-/// units, at least 0), or `None` when there is none: what querying [`contact`] at each pose in
-/// turn and comparing its `max_penetration` with `limit` gives, in one walk.
+/// units, at least 0), if any, and whether the last pose touches: what querying [`contact`] at
+/// each pose in turn and comparing its `max_penetration` with `limit` gives, in one walk.
 /// Only the penetration measure of `params` is used. The cost grows with the points near the
 /// voxmap's surface over the whole motion, not with the number of poses.
 ///
 /// [`contact`]: super::contact
-pub fn first_too_deep<S: PointshellData + ?Sized>(
+pub fn sweep<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
     shell: &S,
     poses: &[Pose],
     params: &ContactParams,
     limit: f64,
-) -> Result<Option<TooDeep>, HapticsError> {
+) -> Result<Sweep, HapticsError> {
     if !(limit.is_finite() && limit >= 0.0) {
         return Err(HapticsError::Params(format!(
             "the depth limit must be finite and >= 0, got {limit}"
@@ -54,7 +65,10 @@ pub fn first_too_deep<S: PointshellData + ?Sized>(
         .map(|pose| Frame::new(voxmap, shell, pose, params))
         .collect::<Result<Vec<_>, _>>()?;
     let Some(middle) = frames.get(poses.len() / 2) else {
-        return Ok(None);
+        return Ok(Sweep {
+            too_deep: None,
+            touching_at_end: false,
+        });
     };
     let origin = shell.origin();
     // Displacement of the shell-frame point `x` between poses i and j, `t_j - t_i + (R_j - R_i) x`,
@@ -77,6 +91,8 @@ pub fn first_too_deep<S: PointshellData + ?Sized>(
 
     let mut cur = voxmap.cursor();
     let (mut first, mut deepest) = (poses.len(), 0.0f64);
+    let last = poses.len() - 1;
+    let mut touching_at_end = false;
     let mut stack = vec![0usize];
     let nodes = middle.nodes;
     while let Some(i) = stack.pop() {
@@ -98,8 +114,9 @@ pub fn first_too_deep<S: PointshellData + ?Sized>(
             let step = moves(p.as_dvec3() + origin, per_pose, turn_per_pose);
             let mut j = 0;
             // Up to the first pose too deep so far, that one included, for its deepest point.
-            while j <= first.min(poses.len() - 1) {
+            while j <= first.min(last) {
                 let (depth, value) = frames[j].point_depth(&mut cur, p, n);
+                touching_at_end |= j == last && frames[j].counts_in_contact(depth, value);
                 if depth > limit {
                     if j < first {
                         (first, deepest) = (j, depth);
@@ -122,8 +139,11 @@ pub fn first_too_deep<S: PointshellData + ?Sized>(
         }
     }
     cur.finish()?;
-    Ok((first < poses.len()).then_some(TooDeep {
-        pose: first,
-        max_penetration: deepest,
-    }))
+    Ok(Sweep {
+        too_deep: (first < poses.len()).then_some(TooDeep {
+            pose: first,
+            max_penetration: deepest,
+        }),
+        touching_at_end: touching_at_end && first == poses.len(),
+    })
 }
