@@ -97,7 +97,8 @@ fn a_version_2_file_queries_as_the_voxmap_in_memory() {
 
 /// The interpolation (through the cursor's brick aprons) is the trilinear blend of the stored
 /// distances of the eight voxel centres around the point, read one by one from the voxmap:
-/// at random points, across brick faces, and beyond the grid's sides.
+/// at random points, across brick faces, and beyond the grid's sides; one at a time and in
+/// the contact query's batches.
 #[test]
 fn interpolation_blends_the_eight_stored_distances_around_a_point() {
     use vps::voxmap::{far_distance, BrickSlot, DISTANCE_STEP};
@@ -119,6 +120,7 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
         }
     };
     let mut cur = p.voxmap.cursor();
+    let (mut batch_cur, mut batch) = (p.voxmap.cursor(), Vec::new());
     let mut rng = vps::shapes::SplitMix(7);
     let dims = grid.dims.map(|d| d as f64);
     for _ in 0..20_000 {
@@ -156,6 +158,21 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
         );
         let want = lerp(y0, y1, t.z) * DISTANCE_STEP;
         assert_eq!(cur.distance_at(u), want, "at {u}");
+        batch.push(u);
+        // The batched interpolation of the contact query gives the same bits in the grid, and
+        // 0 beyond it and for the points left out.
+        if batch.len() == 16 || rng.below(8) == 0 {
+            let mut us = [glam::DVec3::ZERO; 16];
+            us[..batch.len()].copy_from_slice(&batch);
+            let live: [bool; 16] = std::array::from_fn(|k| k < batch.len() && rng.below(4) != 0);
+            let mut got = [f64::NAN; 16];
+            batch_cur.distances_at(&us, &live, &mut got);
+            for (k, u) in batch.drain(..).enumerate() {
+                let inside = (0..3).all(|a| u[a] >= 0.0 && u[a] < dims[a]);
+                let want = if inside && live[k] { cur.distance_at(u) } else { 0.0 };
+                assert_eq!(got[k].to_bits(), want.to_bits(), "at {u}, batched");
+            }
+        }
     }
 }
 

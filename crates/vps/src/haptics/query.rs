@@ -163,6 +163,43 @@ pub(crate) fn area_weight(n: Vec3) -> f64 {
     1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
 }
 
+/// The running sums of [`Frame::test_points`], which live in registers for its loop and are
+/// stored back after it: the same terms in the same order as adding into a [`Contact`].
+struct Sums {
+    force: DVec3,
+    torque: DVec3,
+    touching: u64,
+    deepest: f64,
+}
+
+impl Sums {
+    #[inline(always)]
+    fn of(acc: &Contact) -> Sums {
+        Sums {
+            force: acc.force,
+            torque: acc.torque,
+            touching: 0,
+            deepest: acc.max_penetration,
+        }
+    }
+
+    /// A point at `p` of normal `n` (the pointshell's frame) pushing with `f`, `d` deep.
+    #[inline(always)]
+    fn add(&mut self, p: Vec3, n: DVec3, f: f64, d: f64) {
+        self.force += n * f;
+        self.torque += p.as_dvec3().cross(n) * f;
+        self.deepest = self.deepest.max(d);
+    }
+
+    #[inline(always)]
+    fn store(self, acc: &mut Contact) {
+        acc.force = self.force;
+        acc.torque = self.torque;
+        acc.points_in_contact += self.touching;
+        acc.max_penetration = self.deepest;
+    }
+}
+
 /// A pose, the voxmap's grid and the stiffness folded into what each point needs.
 pub(super) struct Frame<'a> {
     pub(super) voxmap: &'a CachedVoxmap,
@@ -172,7 +209,10 @@ pub(super) struct Frame<'a> {
     rot: DMat3,
     /// `R · origin` of the pointshell: lever arms are `R · p + lever0`.
     lever0: DVec3,
-    /// Grid units of a lever arm `r` are `r / s + units0`.
+    /// The pointshell's origin, in its own frame (see [`Frame::finish`]).
+    origin: DVec3,
+    /// Grid units of a point `p` of the pointshell are `rot_units · p + units0`.
+    rot_units: DMat3,
     units0: DVec3,
     pub(super) inv_s: f64,
     pub(super) s: f64,
@@ -210,7 +250,9 @@ impl<'a> Frame<'a> {
             normals: shell.normals(),
             rot,
             lever0: rot * shell.origin(),
-            units0: (pose.translation - grid.origin) / s,
+            origin: shell.origin(),
+            rot_units: rot * (1.0 / s),
+            units0: (rot * shell.origin() + pose.translation - grid.origin) / s,
             inv_s: 1.0 / s,
             s,
             k: params.stiffness,
@@ -222,17 +264,26 @@ impl<'a> Frame<'a> {
         })
     }
 
-    /// Apply the stiffness to the sums, which are of `d·n` and `d·(r × n)` (see `test_points`).
-    fn scale(&self, acc: &mut Contact) {
-        acc.force *= self.k;
-        acc.torque *= self.k;
+    /// Turn the sums, `Σ f·n` and `Σ f·(p × n)` in the pointshell's frame (see
+    /// `test_points`), into the world force and the torque about the posed origin `o`:
+    /// the lever arm of a point is `R (p + o)`, so the torque is `R (Σ f·(p × n) + o × Σ f·n)`,
+    /// and both are scaled by the stiffness.
+    fn finish(&self, acc: &mut Contact) {
+        let (force, torque) = (acc.force, acc.torque);
+        acc.force = self.rot * force * self.k;
+        acc.torque = self.rot * (torque + self.origin.cross(force)) * self.k;
+    }
+
+    /// Grid units of a pointshell point.
+    #[inline(always)]
+    pub(super) fn units(&self, p: Vec3) -> DVec3 {
+        self.rot_units * p.as_dvec3() + self.units0
     }
 
     /// Lever arm (world offset from the pose origin) and grid units of a pointshell point.
     #[inline]
     pub(super) fn place(&self, p: Vec3) -> (DVec3, DVec3) {
-        let r = self.rot * p.as_dvec3() + self.lever0;
-        (r, r * self.inv_s + self.units0)
+        (self.rot * p.as_dvec3() + self.lever0, self.units(p))
     }
 
     /// The penetration of a point of normal `n` in voxel `v` of value `value ≥ 0` at grid
@@ -248,7 +299,7 @@ impl<'a> Frame<'a> {
     /// when positive), and the value of the voxel it lies in (`None` beyond the grid).
     #[inline]
     pub(super) fn point_depth(&self, cur: &mut Cursor<'_>, p: Vec3, n: Vec3) -> (f64, Option<i8>) {
-        let (_, u) = self.place(p);
+        let u = self.units(p);
         let Some((value, v)) = cur.in_grid(u) else {
             return (0.0, None);
         };
@@ -298,71 +349,84 @@ impl<'a> Frame<'a> {
 
     /// Test points `range`, adding to `acc` in index order.
     ///
-    /// Force and torque are summed without the stiffness, `Σ d·n` and `Σ d·(r × n)` (with
-    /// interpolated distances, `d` times the point's [`area_weight`]), and scaled
-    /// once at the end of the query: one multiplication less per point, and stiffness scales
-    /// the result exactly. The running sums live in registers for the loop and are stored back
-    /// after it, which adds the same terms in the same order as adding into `acc` directly.
+    /// Force and torque are summed in the pointshell's frame and without the stiffness,
+    /// `Σ f·n` and `Σ f·(p × n)` with `f` the penetration (with interpolated distances, times
+    /// the point's [`area_weight`]); [`Frame::finish`] turns them into world force and torque
+    /// once per query. So no normal is rotated, and the stiffness scales the result exactly.
     #[inline]
     fn test_points(&self, cur: &mut Cursor<'_>, range: Range<usize>, acc: &mut Contact) {
-        let (mut force, mut torque) = (acc.force, acc.torque);
-        let (mut touching, mut deepest) = (0u64, acc.max_penetration);
         acc.points_tested += range.len() as u64;
         let points = &self.points[range.clone()];
         let normals = &self.normals[range];
+        if self.distance {
+            self.test_points_distance(cur, points, normals, acc);
+        } else {
+            self.test_points_layers(cur, points, normals, acc);
+        }
+    }
+
+    /// [`Frame::test_points`] with interpolated distances.
+    #[inline]
+    fn test_points_distance(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
+        let mut sums = Sums::of(acc);
         // In batches, each pass over a batch independent of the others, so the processor
-        // overlaps the points' long dependency chains (place, look up, penetrate) instead of
-        // running them one after another: measured 1.3–1.5× on one core.
+        // overlaps the points' long dependency chains (place, look up, interpolate) instead of
+        // running them one after another.
         for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
-            let mut r = [DVec3::ZERO; BATCH];
             let mut u = [DVec3::ZERO; BATCH];
-            for (k, p) in ps.iter().enumerate() {
-                (r[k], u[k]) = self.place(*p);
+            for (u, p) in u.iter_mut().zip(ps) {
+                *u = self.units(*p);
+            }
+            // The interpolation reads the voxels one step around the point's: none is ≥ 0 when
+            // the point's own is ≤ −2 (see `classify`), so it would be ≤ 0. A value costs less
+            // than a distance.
+            let mut live = [false; BATCH];
+            for (live, u) in live.iter_mut().zip(&u[..ps.len()]) {
+                *live = cur.in_grid(*u).is_some_and(|(value, _)| value > -2);
+            }
+            let mut d = [0.0f64; BATCH];
+            cur.distances_at(&u, &live, &mut d);
+            for (k, (p, n)) in ps.iter().zip(ns).enumerate() {
+                // As `point_depth` measures it.
+                let d = self.s * d[k];
+                if d > 0.0 {
+                    sums.touching += 1;
+                    sums.add(*p, n.as_dvec3(), d * area_weight(*n), d);
+                }
+            }
+        }
+        sums.store(acc);
+    }
+
+    /// [`Frame::test_points`] with the paper's layers.
+    #[inline]
+    fn test_points_layers(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
+        let mut sums = Sums::of(acc);
+        for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
+            let mut u = [DVec3::ZERO; BATCH];
+            for (u, p) in u.iter_mut().zip(ps) {
+                *u = self.units(*p);
             }
             let mut hit = [(i8::MIN, [0u32; 3]); BATCH];
-            for k in 0..ps.len() {
-                if let Some(h) = cur.in_grid(u[k]) {
-                    hit[k] = h;
+            for (hit, u) in hit.iter_mut().zip(&u[..ps.len()]) {
+                if let Some(h) = cur.in_grid(*u) {
+                    *hit = h;
                 }
             }
-            if self.distance {
-                for (k, n) in ns.iter().enumerate() {
-                    // The interpolation reads the voxels one step around the point's: none is
-                    // ≥ 0 when the point's own is ≤ −2 (see `classify`), so it would be ≤ 0.
-                    if hit[k].0 <= -2 {
-                        continue;
-                    }
-                    let d = self.s * cur.distance_at(u[k]);
-                    if d > 0.0 {
-                        touching += 1;
-                        let f = d * area_weight(*n);
-                        let n = self.rot * n.as_dvec3();
-                        force += n * f;
-                        torque += r[k].cross(n) * f;
-                        deepest = deepest.max(d);
-                    }
-                }
-                continue;
-            }
-            for (k, n) in ns.iter().enumerate() {
+            for (k, (p, n)) in ps.iter().zip(ns).enumerate() {
                 let (value, v) = hit[k];
                 if value < 0 {
                     continue;
                 }
-                touching += 1;
-                let n = self.rot * n.as_dvec3();
-                let d = self.penetration(value, v, u[k], n);
+                sums.touching += 1;
+                let n = n.as_dvec3();
+                let d = self.penetration(value, v, u[k], self.rot * n);
                 if d > 0.0 {
-                    force += n * d;
-                    torque += r[k].cross(n) * d;
-                    deepest = deepest.max(d);
+                    sums.add(*p, n, d, d);
                 }
             }
         }
-        acc.force = force;
-        acc.torque = torque;
-        acc.points_in_contact += touching;
-        acc.max_penetration = deepest;
+        sums.store(acc);
     }
 
     /// Whether the voxmap proves that no point of `node` lies in a voxel ≥ 0.
@@ -546,18 +610,19 @@ impl<'a> Frame<'a> {
         acc.torque_error_bound += bound * (r.length() + node.radius as f64);
         let axis = node.cone_axis().as_dvec3();
         if value >= 0 && axis.length_squared() > 0.0 {
-            let n = (self.rot * axis).normalize();
+            let n = axis.normalize();
             let d = if self.distance {
                 // Weighted like its points, which keeps the estimate within the bound: the
                 // weights are at most 1.
-                self.s * cur.distance_at(u) * area_weight(axis.normalize().as_vec3())
+                self.s * cur.distance_at(u) * area_weight(n.as_vec3())
             } else {
-                self.penetration(value, v, u, n)
+                self.penetration(value, v, u, self.rot * n)
             };
             if d > 0.0 {
-                // Unscaled, like the points' sums (see `test_points`).
+                // In the pointshell's frame and unscaled, like the points' sums (see
+                // `test_points`).
                 acc.force += n * (count * d);
-                acc.torque += r.cross(n) * (count * d);
+                acc.torque += node.center().as_dvec3().cross(n) * (count * d);
             }
         }
         Ok(())
@@ -646,7 +711,7 @@ pub fn contact<S: PointshellData + ?Sized>(
         // faults, the last level's approximations).
         Some(budget) => frame.walk_budgeted(start + budget.mul_f64(1.0 - BUDGET_RESERVE), &mut acc)?,
     }
-    frame.scale(&mut acc);
+    frame.finish(&mut acc);
     acc.complete = acc.nodes_approximated == 0;
     acc.micros = start.elapsed().as_secs_f64() * 1e6;
     Ok(acc)
@@ -669,7 +734,7 @@ pub fn contact_brute_force<S: PointshellData + ?Sized>(
         frame.test_points(&mut cur, frame.nodes[b].points(), part);
         cur.finish()
     })?;
-    frame.scale(&mut acc);
+    frame.finish(&mut acc);
     acc.complete = true;
     acc.micros = start.elapsed().as_secs_f64() * 1e6;
     Ok(acc)
