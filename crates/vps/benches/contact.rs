@@ -1,8 +1,10 @@
-//! One contact query at several pointshell sizes: a unit ball pressed into a slab voxmap.
+//! One contact query at several pointshell sizes: a unit ball pressed into a slab voxmap with
+//! signed distances, so the penetration is the default, interpolated one.
 //!
 //! - `tree/light`: the ball 0.1 deep, sphere-tree culling on (the haptic case);
 //! - `tree/deep` and `brute/deep`: the ball wholly inside the slab, every point in contact, with
 //!   and without the tree (throughput in points: the "points per millisecond" figure);
+//! - `brute/deep_layers`: the same with the paper's layers, for comparison;
 //! - `budget_200us/deep`: time-critical mode.
 //!
 //! Files are written once per size to a temporary directory and opened memory-mapped, as a
@@ -15,8 +17,8 @@ use glam::{DQuat, DVec3};
 use vps::haptics::contact_brute_force;
 use vps::shapes;
 use vps::{
-    contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, ContactParams, Mesh, PointshellFile,
-    Pose, VoxelizeParams, LEAF_SIZE,
+    contact, pointshell, voxelize, write_pointshell, write_voxmap, CachedVoxmap, ContactParams, Mesh, Penetration,
+    PointshellFile, Pose, VoxelizeParams, LEAF_SIZE,
 };
 
 /// Points of a unit ball's pointshell at voxel size `v` are about 18.8 / v².
@@ -34,6 +36,7 @@ fn bench_contact(c: &mut Criterion) {
     let params = VoxelizeParams {
         voxel_size: 0.01,
         layers: 5,
+        distances: true,
         ..Default::default()
     };
     let (vm, _) = voxelize(&slab, &params).unwrap();
@@ -84,6 +87,13 @@ fn bench_contact(c: &mut Criterion) {
         });
         group.bench_function(BenchmarkId::new("brute/deep", &label), |b| {
             b.iter(|| contact_brute_force(&voxmap, &shell, &deep, &exact).unwrap())
+        });
+        let layers = ContactParams {
+            penetration: Penetration::Layers,
+            ..Default::default()
+        };
+        group.bench_function(BenchmarkId::new("brute/deep_layers", &label), |b| {
+            b.iter(|| contact_brute_force(&voxmap, &shell, &deep, &layers).unwrap())
         });
         group.bench_function(BenchmarkId::new("budget_200us/deep", &label), |b| {
             b.iter(|| contact(&voxmap, &shell, &deep, &budget).unwrap())

@@ -120,6 +120,23 @@ impl Cursor<'_> {
         let brick = b.map(|x| x >> BRICK_SHIFT);
         let in_grid = (0..3).all(|a| brick[a] >= 0 && (brick[a] as u64) < self.brick_dims[a]);
         let mut corner = [0.0f64; 8];
+        let m = (1i64 << BRICK_SHIFT) - 1;
+        if in_grid && (b[0] & m) < m && (b[1] & m) < m && (b[2] & m) < m {
+            // The eight lie in one brick (seven cells in eight along each axis): read them
+            // there, without an apron, which costs eight brick look-ups to build.
+            let n = BRICK as usize;
+            match self.brick_source(brick.map(|c| c as u32)) {
+                BrickSource::Uniform(v) => return ([v as f64; 8], true),
+                BrickSource::Stored(ds) => {
+                    let l = b.map(|x| (x & m) as usize);
+                    let at = (l[2] * n + l[1]) * n + l[0];
+                    for (k, d) in corner.iter_mut().enumerate() {
+                        *d = ds[at + (k & 1) + ((k >> 1) & 1) * n + (k >> 2) * n * n] as f64;
+                    }
+                    return (corner, false);
+                }
+            }
+        }
         match self.apron(brick, in_grid) {
             // Eight equal values interpolate to that value, bit for bit (`a + (a − a)·t`).
             Some(Err(flat)) => return ([flat as f64; 8], true),
