@@ -118,11 +118,14 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     let mut sim = Simulation::new(&voxmap, &shell, body, params, poses[0])
         .context("the object cannot start at the first device pose")?;
-    let mut steps = Vec::with_capacity(poses.len());
-    for (i, device) in poses.iter().enumerate() {
-        let step = sim.step(device).with_context(|| format!("step {i}"))?;
-        steps.push(step);
-    }
+    // On a thread of the pool, so that a query never waits for one to wake (`docs/HAPTICS.md`).
+    let steps = rayon::scope(|_| {
+        poses
+            .iter()
+            .enumerate()
+            .map(|(i, device)| sim.step(device).with_context(|| format!("step {i}")))
+            .collect::<Result<Vec<_>>>()
+    })?;
     let voxel = voxmap.grid().voxel_size;
     if let Some(path) = &a.csv {
         crate::interrupt::clean_beside(path)?;
