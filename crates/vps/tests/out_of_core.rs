@@ -177,23 +177,67 @@ fn a_small_synthetic_car_matches_in_both_fills() {
     }
 }
 
+/// Signed distances, a slab behind the values (each slab's signs read a plane of the slabs
+/// either side): the same file with slabs of one plane, of two, and as thick as the budget
+/// allows, for each fill, on the maze (air winding through slabs, a sealed box), open and
+/// flipped parts, and the synthetic car.
+#[test]
+fn signed_distances_match_across_slabs() {
+    let with_distances = |voxel_size, layers, fill| VoxelizeParams {
+        distances: true,
+        ..params(voxel_size, layers, fill)
+    };
+    let open_parts = assembly(vec![
+        ("bowl", shapes::cut_sphere(DVec3::new(0.1, 0.2, 0.3), 3.0, 24, 48, 1.0)),
+        (
+            "cracked",
+            shapes::cracked_sphere(DVec3::new(-5.0, 0.0, 0.0), 2.5, 16, 32, 0.02),
+        ),
+        (
+            "flipped",
+            shapes::flipped(&shapes::cut_sphere(DVec3::new(0.0, 6.0, 0.0), 2.0, 16, 32, 0.5)),
+        ),
+        (
+            "sheet",
+            shapes::open_box(DVec3::new(3.5, -2.0, -2.0), DVec3::new(7.0, 2.0, 1.5)),
+        ),
+    ]);
+    let car = synth_car(&SynthParams {
+        triangles: 20_000,
+        seed: 11,
+    })
+    .unwrap();
+    for fill in [Fill::Scene, Fill::Objects, Fill::Winding] {
+        for planes in [Some(1), Some(2), None] {
+            let (bytes, slabs) = same_file(&maze(true), &with_distances(0.25, 3, fill), planes);
+            assert!(slabs > 1, "{slabs} slabs");
+            assert!(VoxmapFile::from_bytes(&bytes).unwrap().header().has_distances());
+            same_file(&open_parts, &with_distances(0.2, 4, fill), planes);
+        }
+        same_file(&car, &with_distances(12.0, 5, fill), Some(1));
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(16))]
 
-    /// Random assemblies of closed, hollow and open parts, random layers and slab thickness.
+    /// Random assemblies of closed, hollow and open parts, random layers, slab thickness and fill,
+    /// with signed distances or without.
     #[test]
     fn random_assemblies_match(
         parts in proptest::collection::vec((0u8..4, -3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64, 0.6..2.0f64), 1..6),
         layers in 0u8..11,
         planes in 1u32..4,
         fill in 0u8..3,
+        distances in any::<bool>(),
     ) {
         let parts: Vec<(&str, Vec<Triangle>)> = parts
             .into_iter()
             .map(|(kind, x, y, z, r)| ("part", random_part(kind, DVec3::new(x, y, z), r)))
             .collect();
         let fill = [Fill::Scene, Fill::Objects, Fill::Winding][fill as usize];
-        same_file(&assembly(parts), &params(0.2, layers, fill), Some(planes));
+        let p = VoxelizeParams { distances, ..params(0.2, layers, fill) };
+        same_file(&assembly(parts), &p, Some(planes));
     }
 }
 

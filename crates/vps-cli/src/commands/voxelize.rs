@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 
 use vps::out_of_core::budget;
@@ -66,8 +66,8 @@ pub struct VoxelizeArgs {
     #[arg(long, requires = "memory_limit")]
     tmp_dir: Option<PathBuf>,
     /// Also store every stored voxel's signed distance to the mesh (a version 2 file), for
-    /// the haptic query's interpolated penetration. In memory only for now.
-    #[arg(long, conflicts_with = "memory_limit")]
+    /// the haptic query's interpolated penetration; in memory or out of core alike.
+    #[arg(long)]
     distance: bool,
     /// Print the summary as one JSON object.
     #[arg(long)]
@@ -104,13 +104,6 @@ pub fn run(a: VoxelizeArgs) -> Result<()> {
             estimate.surface_voxels,
             human_bytes(budget)
         );
-        if params.distances {
-            bail!(
-                "--distance is computed in memory only, and this run needs about {}, more than the budget of {}:                  raise VPS_MEMORY_BUDGET or leave out --distance",
-                human_bytes(estimate.peak_bytes),
-                human_bytes(budget)
-            );
-        }
         let input = out_of_core::Input::Loaded(mesh);
         return out_of_core::run(input, &params, &a.output, budget, tmp_dir, a.json);
     }

@@ -33,10 +33,12 @@
 //! Values beyond the layers, and tiles, are at least the reach away (see
 //! [`crate::voxmap::distance_reach`]): they hold ± the reach.
 
+use std::ops::Range;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::distance::nearest_in_layers;
+use super::distance::NearTriangles;
 use super::pointshell::normals::{Neighbours, Window};
 use crate::geometry::closest::closest_point;
 use crate::grid::{BRICK_SHIFT, BRICK_VOXELS};
@@ -54,21 +56,30 @@ const TOUCH: f64 = 0.8660254037844387 * (1.0 + 1e-6);
 /// The signed distances of every stored brick of `voxmap` (made from `mesh`), in the order of
 /// [`Voxmap::bricks`]; attach them with [`Voxmap::with_distances`].
 pub fn signed_distances(mesh: &Mesh, voxmap: &Voxmap) -> Vec<BrickDistances> {
+    signed_distances_of(mesh, voxmap, 0..voxmap.bricks().len())
+}
+
+/// [`signed_distances`] of the stored bricks `own` only (indices into [`Voxmap::bricks`]). A
+/// brick's numbers depend only on the mesh and on the values within two voxels of it, so they
+/// are those of the whole voxmap when `voxmap` holds every brick and inside run that the
+/// whole one has within a brick of `own`: the out-of-core path computes a slab at a time so.
+pub fn signed_distances_of(mesh: &Mesh, voxmap: &Voxmap, own: Range<usize>) -> Vec<BrickDistances> {
     let layers = voxmap.layers();
     let reach = distance_reach(layers);
     let grid = *voxmap.grid();
-    let (nearest, triangles) = nearest_in_layers(mesh, voxmap);
+    let candidates = NearTriangles::new(mesh, voxmap, own.clone());
     let quantize = |phi: f64| (phi.clamp(-reach, reach) / DISTANCE_STEP).round() as i16;
-    let triangles = &triangles[..];
+    let (candidates, triangles) = (&candidates, &candidates.triangles[..]);
     // Runs of bricks in key order, each with its own window and cursor, whose look-ups need
-    // the keys to increase.
-    voxmap
-        .bricks()
+    // the keys to increase. A brick's nearest triangles are found just before its signs, so
+    // that only the bricks being worked on hold them (4 KiB a brick).
+    voxmap.bricks()[own]
         .par_chunks(BRICKS_PER_RUN)
-        .zip(nearest.par_chunks(BRICKS_PER_RUN))
-        .flat_map_iter(|(bricks, nears)| {
+        .enumerate()
+        .flat_map_iter(|(run, bricks)| {
             let (mut neighbours, mut window) = (Neighbours::new(voxmap), Window::new(voxmap));
-            bricks.iter().zip(nears).map(move |(brick, near)| {
+            bricks.iter().enumerate().map(move |(j, brick)| {
+                let near = candidates.nearest(run * BRICKS_PER_RUN + j, brick);
                 let b = grid.brick_coords(brick.key);
                 window.gather(&mut neighbours, b);
                 let base = b.map(|c| (c << BRICK_SHIFT) as f64);

@@ -50,11 +50,25 @@ pub fn surface_voxels(mesh: &Mesh, s: f64) -> f64 {
         .sum()
 }
 
+/// Bytes the signed distances add per surface voxel with `layers` layers, at their peak (each
+/// stored brick's distances, 1 KiB, the triangle lists that find them, and the nearest
+/// triangles of the bricks being worked on). Measured on Nefertiti at voxel 0.5225 with 5
+/// layers: 148 MB more for 1.89 million surface voxels (65,106 stored bricks), 78 bytes each.
+fn distance_bytes_per_surface_voxel(layers: u8) -> f64 {
+    (40.0 + 8.0 * layers as f64) * MARGIN
+}
+
 /// The in-memory voxelizer's expected peak for `mesh` with `params`.
 pub fn voxelize_in_memory(mesh: &Mesh, params: &VoxelizeParams) -> MemoryEstimate {
     let mesh_bytes = mesh.approx_bytes();
     let surface = surface_voxels(mesh, params.voxel_size);
-    let peak = mesh_bytes as f64 + surface * bytes_per_surface_voxel(params.layers);
+    let per_voxel = bytes_per_surface_voxel(params.layers)
+        + if params.distances {
+            distance_bytes_per_surface_voxel(params.layers)
+        } else {
+            0.0
+        };
+    let peak = mesh_bytes as f64 + surface * per_voxel;
     MemoryEstimate {
         mesh_bytes,
         surface_voxels: surface,

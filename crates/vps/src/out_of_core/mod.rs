@@ -16,6 +16,8 @@
 //!    of `⌈layers / 8⌉` planes on each side (all the layers can see), the chessboard
 //!    distances, the signs, then the bricks and inside runs go straight to the
 //!    [`VoxmapWriter`]. The result is byte for byte the file of the in-memory path.
+//!    With signed distances, a slab's bricks wait for the next slab's values, and go to the
+//!    file with their distances (see [`DistanceSlabs`]): byte for byte again.
 //!
 //! Slabs are as thick as the memory limit allows, from the surface counts of pass 1.
 
@@ -28,6 +30,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::generate::signed_distance::signed_distances_of;
 use crate::generate::surface::{chunk_surface, ChunkBins, CHUNK_BRICKS};
 use crate::generate::winding;
 use crate::generate::{
@@ -41,7 +44,7 @@ use crate::voxmap::fill::{Components, UnionFind, XFace};
 use crate::voxmap::layers::distance_layers;
 use crate::voxmap::mask::union_by_key;
 use crate::voxmap::solid::{ObjectsInside, Solid};
-use crate::voxmap::Mask512;
+use crate::voxmap::{Brick, KeyRange, Mask512, Voxmap};
 
 pub mod budget;
 mod slabs;
@@ -58,6 +61,14 @@ const SURFACE_BRICK_BYTES: u64 = 72;
 /// Bytes per brick near the surface while its layers and values are made: distances (512),
 /// three masks, key, neighbour table, allocation overhead.
 const NEAR_BRICK_BYTES: u64 = 800;
+/// Bytes per brick near the surface for its signed distances: its distances (1 KiB) and its
+/// values, held until the next slab is made; the nearest triangles (4 KiB a brick) are held
+/// only for the bricks being worked on (measured in memory on Nefertiti: 2.3 KiB a stored
+/// brick, lists and the final copy included; a slab has fewer stored bricks than near ones).
+const DISTANCE_BRICK_BYTES: u64 = 2 << 10;
+/// Bytes per triangle for the signed distances: in grid units and its plane, all of them in
+/// the worst case of a slab that every triangle comes near.
+const DISTANCE_TRIANGLE_BYTES: u64 = 104;
 /// Bytes per surface brick of the slab for its fill: walls, reached masks, component parts
 /// (scene) or partial inside masks in a hash map (objects).
 const FILL_BRICK_BYTES: u64 = 320;
@@ -125,11 +136,6 @@ pub fn voxelize_bounded(
     output: &Path,
     opts: &Bounded,
 ) -> Result<BoundedReport, GenerateError> {
-    if params.distances {
-        return Err(GenerateError::Unsupported(
-            "signed distances out of core (generate in memory, without --memory-limit)".into(),
-        ));
-    }
     let grid = crate::generate::grid_for(mesh, params)?;
     let nb = grid.brick_dims();
     let plane = nb[1] as u64 * nb[2] as u64;
@@ -147,7 +153,12 @@ pub fn voxelize_bounded(
     let bins = ChunkBins::new(&grid, &mesh.triangles);
     let mesh_bytes = (mesh.triangles.capacity() * std::mem::size_of::<Triangle>()) as u64
         + mesh.objects.iter().map(|o| o.name.capacity() as u64 + 48).sum::<u64>();
-    report.fixed_bytes = mesh_bytes + bins.heap_bytes() + RESERVED_BYTES;
+    let distance_bytes = if params.distances {
+        mesh.triangles.len() as u64 * DISTANCE_TRIANGLE_BYTES
+    } else {
+        0
+    };
+    report.fixed_bytes = mesh_bytes + bins.heap_bytes() + distance_bytes + RESERVED_BYTES;
     let Some(budget) = opts.memory_limit.checked_sub(report.fixed_bytes) else {
         return Err(GenerateError::MemoryLimit {
             limit: opts.memory_limit,
@@ -207,6 +218,7 @@ pub fn voxelize_bounded(
         halo,
         fill: params.fill,
         read_bytes: files.iter().map(|f| f.bricks).max().unwrap_or(0) * SURFACE_BRICK_BYTES,
+        distances: params.distances,
     };
     let slabs = est.plan(budget, opts.max_slab_planes)?;
     report.slabs = slabs.len();
@@ -234,7 +246,12 @@ pub fn voxelize_bounded(
     let t = Instant::now();
     let mut writer = VoxmapWriter::create(output, grid, params.layers)?;
     writer.spill_index_to(spill.path())?;
+    if params.distances {
+        writer.with_distances()?;
+    }
     let mut runs = RunList::default();
+    // With distances, a slab's bricks wait for the next slab's (see `DistanceSlabs`).
+    let mut distances = params.distances.then(|| DistanceSlabs::new(mesh, grid, params.layers));
     let mut layer_bricks = 0usize;
     // Time of each step of pass 3, summed over slabs, for `VPS_LOG=debug`.
     let mut steps = [std::time::Duration::ZERO; 5];
@@ -313,10 +330,18 @@ pub fn voxelize_bounded(
         let mut spans = solid.enclosed_spans();
         spans.sort_unstable();
         for (start, end) in spans {
-            add_inside_span(start, end, &bricks, |s, e| runs.push(s, e));
+            add_inside_span(start, end, &bricks, |s, e| {
+                runs.push(s, e);
+                if let Some(d) = &mut distances {
+                    d.runs.push(s, e);
+                }
+            });
         }
         mark(3);
-        writer.push_bricks(&bricks)?;
+        match &mut distances {
+            Some(d) => d.push_slab(&mut writer, keys, bricks)?,
+            None => writer.push_bricks(&bricks)?,
+        }
         // Every run but the last is final: the next slab may extend the last one.
         let keep = runs.runs.pop();
         for r in runs.runs.drain(..) {
@@ -327,6 +352,10 @@ pub fn voxelize_bounded(
     }
     for r in runs.runs.drain(..) {
         writer.push_inside_run(r)?;
+    }
+    if let Some(d) = &mut distances {
+        d.finish(&mut writer)?;
+        report.voxelize.t_distances = d.time;
     }
     mark(4);
     tracing::debug!(
@@ -343,4 +372,101 @@ pub fn voxelize_bounded(
     report.voxelize.leaks = report.write.counts.inner_voxels == 0;
     drop(spill);
     Ok(report)
+}
+
+/// The signed distances out of core, a slab behind the values: a slab's distances read the
+/// values within two voxels of its bricks (the signs of its surface voxels), which reach one
+/// brick plane into the slabs either side. So each slab's bricks wait until the next slab's
+/// are made; then the slab, the last plane of the one before and the first plane of the one
+/// after, with the inside runs around them, make a voxmap on which
+/// [`signed_distances_of`] computes the slab's bricks, the same numbers as on the whole
+/// voxmap, and the bricks go to the file with their distances.
+struct DistanceSlabs<'a> {
+    mesh: &'a Mesh,
+    grid: Grid,
+    layers: u8,
+    /// Brick keys per plane of x.
+    plane: u64,
+    /// The slab waiting for the next one: its keys and bricks.
+    waiting: Option<(Range<u64>, Vec<Brick>)>,
+    /// The bricks of the last plane of the slab before the waiting one.
+    before: Vec<Brick>,
+    /// The inside runs so far, less those that end before `before`'s plane.
+    runs: RunList,
+    /// Time spent on distances.
+    time: std::time::Duration,
+}
+
+impl<'a> DistanceSlabs<'a> {
+    fn new(mesh: &'a Mesh, grid: Grid, layers: u8) -> Self {
+        let nb = grid.brick_dims();
+        DistanceSlabs {
+            mesh,
+            grid,
+            layers,
+            plane: nb[1] as u64 * nb[2] as u64,
+            waiting: None,
+            before: Vec::new(),
+            runs: RunList::default(),
+            time: std::time::Duration::ZERO,
+        }
+    }
+
+    /// Takes the bricks of the slab `keys` (its inside runs already in `self.runs`) and writes
+    /// the slab before it.
+    fn push_slab(
+        &mut self,
+        writer: &mut VoxmapWriter,
+        keys: Range<u64>,
+        bricks: Vec<Brick>,
+    ) -> Result<(), GenerateError> {
+        if let Some(waiting) = self.waiting.take() {
+            let first_plane = bricks.partition_point(|b| b.key < keys.start + self.plane);
+            self.write(writer, waiting, &bricks[..first_plane])?;
+        }
+        self.waiting = Some((keys, bricks));
+        Ok(())
+    }
+
+    /// Writes the last slab.
+    fn finish(&mut self, writer: &mut VoxmapWriter) -> Result<(), GenerateError> {
+        match self.waiting.take() {
+            Some(waiting) => self.write(writer, waiting, &[]),
+            None => Ok(()),
+        }
+    }
+
+    /// Writes the slab `keys` with its distances, `after` being the bricks of the plane after it.
+    fn write(
+        &mut self,
+        writer: &mut VoxmapWriter,
+        (keys, slab): (Range<u64>, Vec<Brick>),
+        after: &[Brick],
+    ) -> Result<(), GenerateError> {
+        let t = Instant::now();
+        let window = keys.start.saturating_sub(self.plane)..keys.end + self.plane;
+        let first = self.runs.runs.partition_point(|r| r.end <= window.start);
+        self.runs.runs.drain(..first);
+        let runs: Vec<KeyRange> = self
+            .runs
+            .runs
+            .iter()
+            .take_while(|r| r.start < window.end)
+            .copied()
+            .collect();
+        let own = self.before.len()..self.before.len() + slab.len();
+        let mut bricks = std::mem::take(&mut self.before);
+        bricks.extend(slab);
+        bricks.extend_from_slice(after);
+        let voxmap = Voxmap::from_parts(self.grid, self.layers, bricks, runs);
+        let distances = signed_distances_of(self.mesh, &voxmap, own.clone());
+        let mut bricks = voxmap.into_bricks();
+        bricks.truncate(own.end);
+        let slab = bricks.split_off(own.start);
+        self.time += t.elapsed();
+        writer.push_bricks_with_distances(&slab, &distances)?;
+        let last_plane = slab.partition_point(|b| b.key < keys.end.saturating_sub(self.plane));
+        self.before = slab[last_plane..].to_vec();
+        Ok(())
+    }
 }

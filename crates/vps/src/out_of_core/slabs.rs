@@ -10,6 +10,8 @@ pub(super) struct SlabEstimate<'a> {
     pub(super) halo: u32,
     pub(super) fill: Fill,
     pub(super) read_bytes: u64,
+    /// Whether the slabs' signed distances are computed.
+    pub(super) distances: bool,
 }
 
 impl SlabEstimate<'_> {
@@ -30,7 +32,15 @@ impl SlabEstimate<'_> {
                 Fill::Objects | Fill::Winding => CROSSINGS_BYTES,
                 Fill::Scene => 0,
             };
-        self.read_bytes + with_halo * SURFACE_BRICK_BYTES * 2 + near * NEAR_BRICK_BYTES + fill
+        // A slab's distances are made while the next slab's values are: count both, each by
+        // its own bricks near the surface.
+        let own_near = ((r.end - r.start) as u64 * self.plane).min(own * reach * reach * reach);
+        let distances = if self.distances {
+            2 * own_near * DISTANCE_BRICK_BYTES
+        } else {
+            0
+        };
+        self.read_bytes + with_halo * SURFACE_BRICK_BYTES * 2 + near * NEAR_BRICK_BYTES + fill + distances
     }
 
     /// Cut the planes into slabs whose estimates fit `budget`, each as thick as it can be;

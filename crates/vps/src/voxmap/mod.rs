@@ -196,6 +196,12 @@ impl Voxmap {
         self
     }
 
+    /// The stored bricks, taken back (the out-of-core path lends a slab's bricks to a voxmap
+    /// for its distances).
+    pub(crate) fn into_bricks(self) -> Vec<Brick> {
+        self.bricks
+    }
+
     /// The signed distances of the stored bricks, if the voxmap carries them.
     pub fn distances(&self) -> Option<&[BrickDistances]> {
         self.distances.as_deref()
