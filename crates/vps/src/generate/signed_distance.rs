@@ -103,14 +103,9 @@ pub fn signed_distances_of(mesh: &Mesh, voxmap: &Voxmap, own: Range<usize>) -> V
                         continue;
                     }
                     let l = [local & 7, (local >> 3) & 7, local >> 6];
-                    let (mut inside, mut outside, mut g) = (false, false, DVec3::ZERO);
-                    for k in 0..125i32 {
-                        let o = [k % 5, (k / 5) % 5, k / 25].map(|c| c - 2);
-                        let v = window.get(l.map(|c| c as u32), o);
-                        inside |= v > 0;
-                        outside |= v < 0;
-                        g += DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * v as f64;
-                    }
+                    let sums = window.sums(l.map(|c| c as u32));
+                    let (inside, outside) = (sums.inside, sums.outside);
+                    let g = DVec3::from_array(sums.s.map(f64::from));
                     let towards_values = || {
                         let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;
                         let q = closest_point(c, &triangles[near.triangle[local] as usize]).point;

@@ -172,15 +172,24 @@ impl Window {
         self.values[start..start + 5].try_into().expect("five values")
     }
 
+    /// The sums over the 5×5×5 neighbourhood of local voxel `l`.
+    #[inline]
+    pub(in crate::generate) fn sums(&self, l: [u32; 3]) -> Sums {
+        sums(
+            &self.values[..],
+            (l[2] as usize * W + l[1] as usize) * W + l[0] as usize,
+        )
+    }
+
     /// The inward normal at local voxel `l`; whether the triangle's normal had to be used; and
     /// whether the point is two-sided: no voxel of its 5×5×5 neighbourhood is inside.
     pub(super) fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool, bool) {
-        let base = (l[2] as usize * W + l[1] as usize) * W + l[0] as usize;
         let Sums {
             s: [sx, sy, sz],
             by_length,
             inside,
-        } = sums(&self.values[..], base);
+            ..
+        } = self.sums(l);
         let sum = DVec3::new(sx as f64, sy as f64, sz as f64);
         let len = sum.length();
         if len > 0.0 {

@@ -5,13 +5,15 @@ use super::normals::W;
 
 /// Integer sums over the 5×5×5 neighbourhood of a voxel, all exact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Sums {
+pub(in crate::generate) struct Sums {
     /// `Σ value · offset`.
-    pub(super) s: [i32; 3],
+    pub(in crate::generate) s: [i32; 3],
     /// `Σ |value|` over the offsets of each squared length 0 to 12.
-    pub(super) by_length: [i32; 13],
+    pub(in crate::generate) by_length: [i32; 13],
     /// Whether a value is > 0 (an inside voxel).
-    pub(super) inside: bool,
+    pub(in crate::generate) inside: bool,
+    /// Whether a value is < 0 (an outside voxel).
+    pub(in crate::generate) outside: bool,
 }
 
 /// The squared distance `y² + z²` from the centre of the rows of each slot of [`sums`]: the
@@ -41,7 +43,7 @@ pub(super) fn sums(values: &[i8], base: usize) -> Sums {
     let (mut all_even, mut all_odd) = (0u64, 0u64);
     let (mut y_pos, mut y_neg, mut z_pos, mut z_neg) = (0u64, 0u64, 0u64, 0u64);
     let (mut abs_even, mut abs_odd) = ([0u64; 6], [0u64; 6]);
-    let mut positive = 0u64;
+    let (mut positive, mut negative_any) = (0u64, 0u64);
     // Written out row by row, so that offsets, weights and slots are constants.
     macro_rules! row {
         ($y:literal, $z:literal, $slot:literal) => {{
@@ -77,6 +79,7 @@ pub(super) fn sums(values: &[i8], base: usize) -> Sums {
             // The top bit of a byte ends up set if its low 7 bits are not all 0 and its own top
             // bit (the sign) is clear: if the value is > 0.
             positive |= ((v & !(ONES * 0x80)) + ONES * 0x7f) & !v & (ONES * 0x80);
+            negative_any |= v & (ONES * 0x80);
         }};
     }
     row!(-2, -2, 5);
@@ -119,6 +122,7 @@ pub(super) fn sums(values: &[i8], base: usize) -> Sums {
         ],
         by_length,
         inside: positive != 0,
+        outside: negative_any != 0,
     }
 }
 
@@ -129,6 +133,7 @@ fn sums_scalar(values: &[i8], base: usize) -> Sums {
         s: [0; 3],
         by_length: [0; 13],
         inside: false,
+        outside: false,
     };
     for z in -2i32..=2 {
         for y in -2i32..=2 {
@@ -140,6 +145,7 @@ fn sums_scalar(values: &[i8], base: usize) -> Sums {
                 out.s[2] += v * z;
                 out.by_length[(x * x + y * y + z * z) as usize] += v.abs();
                 out.inside |= v > 0;
+                out.outside |= v < 0;
             }
         }
     }
