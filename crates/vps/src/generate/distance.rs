@@ -112,9 +112,8 @@ impl NearTriangles {
         // The bricks a triangle's candidates reach: a voxel v, centre v + 0.5, is within the
         // reach of a point of the box [lo, hi] only if lo - reach - 0.5 <= v <= hi + reach - 0.5
         // on every axis.
-        let brick_box = |tri: &[DVec3; 3]| {
-            let lo = tri[0].min(tri[1]).min(tri[2]);
-            let hi = tri[0].max(tri[1]).max(tri[2]);
+        let bounding_box = |t: &[DVec3; 3]| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        let brick_box = |&(lo, hi): &(DVec3, DVec3)| {
             let first: [i64; 3] =
                 std::array::from_fn(|a| (((lo[a] - reach - 0.5).floor() as i64) >> BRICK_SHIFT).max(0));
             let last: [i64; 3] =
@@ -126,20 +125,21 @@ impl NearTriangles {
             (Some(f), Some(l)) => (grid.brick_coords(f.key)[0] as i64, grid.brick_coords(l.key)[0] as i64),
             _ => (i64::MAX, i64::MIN),
         };
-        let triangles: Vec<[DVec3; 3]> = mesh
+        let (triangles, boxes): (Vec<[DVec3; 3]>, Vec<(DVec3, DVec3)>) = mesh
             .triangles
             .par_iter()
             .filter_map(|t| {
                 let tri = t.map(|p| grid.to_grid_units(p));
-                let (first, last) = brick_box(&tri);
-                (first[0] <= x_last && last[0] >= x_first).then_some(tri)
+                let b = bounding_box(&tri);
+                let (first, last) = brick_box(&b);
+                (first[0] <= x_last && last[0] >= x_first).then_some((tri, b))
             })
-            .collect();
-        let mut bins: Vec<(u32, u32)> = triangles
+            .unzip();
+        let mut bins: Vec<(u32, u32)> = boxes
             .par_iter()
             .enumerate()
-            .flat_map_iter(|(t, tri)| {
-                let (first, last) = brick_box(tri);
+            .flat_map_iter(|(t, b)| {
+                let (first, last) = brick_box(b);
                 let index = &index;
                 (first[0]..=last[0]).flat_map(move |x| {
                     (first[1]..=last[1]).flat_map(move |y| {
@@ -165,10 +165,6 @@ impl NearTriangles {
                 let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
                 (n, n.dot(t[0]))
             })
-            .collect();
-        let boxes = triangles
-            .par_iter()
-            .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
             .collect();
         NearTriangles {
             triangles,

@@ -66,9 +66,9 @@ const NEAR_BRICK_BYTES: u64 = 800;
 /// only for the bricks being worked on (measured in memory on Nefertiti: 2.3 KiB a stored
 /// brick, lists and the final copy included; a slab has fewer stored bricks than near ones).
 const DISTANCE_BRICK_BYTES: u64 = 2 << 10;
-/// Bytes per triangle for the signed distances: in grid units and its plane, all of them in
-/// the worst case of a slab that every triangle comes near.
-const DISTANCE_TRIANGLE_BYTES: u64 = 104;
+/// Bytes per triangle for the signed distances: in grid units (72), its plane (32) and its
+/// box (48), all of them in the worst case of a slab that every triangle comes near.
+const DISTANCE_TRIANGLE_BYTES: u64 = 152;
 /// Bytes per surface brick of the slab for its fill: walls, reached masks, component parts
 /// (scene) or partial inside masks in a hash map (objects).
 const FILL_BRICK_BYTES: u64 = 320;
