@@ -278,3 +278,98 @@ fn a_voxmap_of_another_mesh_is_refused() {
     .unwrap();
     assert!(pointshell(&big, &vm, LEAF_SIZE).is_err());
 }
+
+/// The projection by brute force: for every voxel, every triangle that the SAT test says
+/// touches it (each triangle's whole bounding box tested), the best closest point to its
+/// centre: inside a triangle before on an edge or vertex, then nearest as `f32`, then lowest
+/// triangle index. The points as the pointshell stores them, sorted by their bits.
+fn projection_by_brute_force(mesh: &Mesh, vm: &Voxmap, origin: DVec3) -> Vec<[u32; 3]> {
+    use std::collections::HashMap;
+    use vps::geometry::closest::Feature;
+    use vps::geometry::sat::SatTriangle;
+    let g = *vm.grid();
+    let mut best: HashMap<[i64; 3], (u32, u32, u32, DVec3)> = HashMap::new();
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        let st = SatTriangle::new(t.map(|p| g.to_grid_units(p)));
+        let lo = st.v[0].min(st.v[1]).min(st.v[2]).floor();
+        let hi = st.v[0].max(st.v[1]).max(st.v[2]).floor();
+        for z in lo.z as i64 - 1..=hi.z as i64 + 1 {
+            for y in lo.y as i64 - 1..=hi.y as i64 + 1 {
+                for x in lo.x as i64 - 1..=hi.x as i64 + 1 {
+                    if !st.overlaps_voxel([x, y, z]) {
+                        continue;
+                    }
+                    let c = DVec3::new(x as f64, y as f64, z as f64) + 0.5;
+                    let cp = closest_point(c, &st.v);
+                    let rank = (
+                        (cp.feature != Feature::Face) as u32,
+                        (cp.dist_sq as f32).to_bits(),
+                        ti as u32,
+                        cp.point,
+                    );
+                    let slot = best.entry([x, y, z]).or_insert(rank);
+                    if (rank.0, rank.1, rank.2) < (slot.0, slot.1, slot.2) {
+                        *slot = rank;
+                    }
+                }
+            }
+        }
+    }
+    let mut points: Vec<[u32; 3]> = best
+        .values()
+        .map(|b| {
+            (g.origin + b.3 * g.voxel_size - origin)
+                .as_vec3()
+                .to_array()
+                .map(f32::to_bits)
+        })
+        .collect();
+    points.sort_unstable();
+    points
+}
+
+/// The pointshell's projection skips most SAT tests (the closest point usually settles
+/// whether a triangle touches a voxel): it must still choose what the brute force chooses, bit
+/// for bit, on a sphere, on faces lying exactly on voxel faces, and on a soup of cracked,
+/// flipped, duplicated and sliver triangles.
+#[test]
+fn projection_matches_brute_force_bit_for_bit() {
+    let mut rng = vps::shapes::SplitMix(17);
+    let mut soup = Vec::new();
+    for (i, t) in shapes::sphere(DVec3::new(1.0, 2.0, 3.0), 6.0, 14, 28)
+        .into_iter()
+        .enumerate()
+    {
+        // Cracks: each triangle moved on its own by up to a tenth of a voxel.
+        let shift = DVec3::new(rng.range(-0.04, 0.04), rng.range(-0.04, 0.04), rng.range(-0.04, 0.04));
+        let t = t.map(|p| p + shift);
+        soup.push(if i % 5 == 0 { [t[0], t[2], t[1]] } else { t });
+        if i % 7 == 0 {
+            soup.push(t);
+        }
+    }
+    // Slivers, from nearly collinear to collinear, long across many voxels.
+    for k in 0..6 {
+        let a = DVec3::new(-7.0, -6.0 + k as f64, 2.0);
+        let b = DVec3::new(9.0, 5.0 - k as f64, 4.0);
+        let m = (a + b) * 0.5 + DVec3::new(0.0, 0.0, 10f64.powi(-2 * k));
+        soup.push([a, b, m]);
+    }
+    let cases = [
+        ("sphere", shapes::sphere(DVec3::ZERO, 5.0, 16, 32), 0.37),
+        // Faces at multiples of the voxel size: on voxel faces, touching two voxels.
+        (
+            "box on the lattice",
+            shapes::cuboid(DVec3::new(-2.0, -1.5, 0.0), DVec3::new(3.0, 2.5, 1.5)),
+            0.25,
+        ),
+        ("soup", soup, 0.4),
+    ];
+    for (name, triangles, s) in cases {
+        let mesh = Mesh::from_triangles(name, triangles).unwrap();
+        let (vm, ps) = make(&mesh, s);
+        let mut got: Vec<[u32; 3]> = ps.points.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+        got.sort_unstable();
+        assert_eq!(got, projection_by_brute_force(&mesh, &vm, ps.origin), "{name}");
+    }
+}

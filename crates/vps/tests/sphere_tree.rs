@@ -219,7 +219,9 @@ fn node_layout_is_fixed() {
 
 #[test]
 fn small_and_edge_sizes() {
-    for leaf in [1, 2, 3, 8, LEAF_SIZE, 32] {
+    // Leaves above 64 points are fitted like the larger nodes (from their points, not their
+    // children), so 64, 65 and 100 are edge cases too.
+    for leaf in [1, 2, 3, 8, LEAF_SIZE, 32, 64, 65, 100] {
         for n in [0, 1, 2, 3, leaf, leaf + 1, 2 * leaf, 2 * leaf + 1, 5 * leaf + 3, 1000] {
             for cloud in [sphere(n, 7), clustered(n, 8), duplicates(n, 9)] {
                 let (tree, _) = build_and_check(&cloud, leaf);
@@ -390,7 +392,7 @@ fn validate_rejects_corruption() {
 fn cloud_strategy() -> impl Strategy<Value = (Cloud, usize)> {
     (
         0usize..300,
-        1usize..20,
+        prop_oneof![1usize..20, 60usize..130],
         any::<u64>(),
         prop::bool::ANY,
         -3i32..4,

@@ -96,6 +96,32 @@ pub fn touched_voxels(
     stats: &mut NavStats,
     mut mark: impl FnMut([i64; 3]),
 ) {
+    visit_candidates(tri, lo, hi, nav, stats, |v, certain| {
+        let hit = certain || tri.overlaps_voxel(v);
+        if hit {
+            mark(v);
+        }
+        hit
+    });
+}
+
+/// The navigation of [`touched_voxels`] with the test left to the caller: `visit(v, certain)`
+/// is called for the candidate voxels of `[lo, hi]`, each at most once, with `certain` when
+/// the navigation knows that the triangle touches `v`; otherwise `visit` decides, and must
+/// answer exactly as [`SatTriangle::overlaps_voxel`] would, because the navigation builds on
+/// its answers (narrowing takes the voxels between a column's first and last touched ones as
+/// touched). Every touched voxel is visited, and is certain or answered `true`. A caller that
+/// needs more of a voxel than the answer (pointshell projection needs its closest point, which
+/// usually settles the answer too) can so spare most SAT tests. `stats.sat_tests` counts the
+/// voxels `visit` decides.
+pub fn visit_candidates(
+    tri: &SatTriangle,
+    lo: [i64; 3],
+    hi: [i64; 3],
+    nav: Navigation,
+    stats: &mut NavStats,
+    mut visit: impl FnMut([i64; 3], bool) -> bool,
+) {
     let mut tmin = [0.0; 3];
     let mut tmax = [0.0; 3];
     let mut first = [0i64; 3];
@@ -115,7 +141,7 @@ pub fn touched_voxels(
         // Unclipped rounding leaves a single voxel only when the triangle lies inside it by
         // more than the slack: it touches that voxel, no test needed.
         stats.marked += 1;
-        mark(first);
+        visit(first, true);
         return;
     }
     let bbox_voxels = (0..3).map(|a| last[a] - first[a] + 1).product::<i64>();
@@ -124,10 +150,7 @@ pub fn touched_voxels(
             for j in first[1]..=last[1] {
                 for k in first[2]..=last[2] {
                     stats.sat_tests += 1;
-                    if tri.overlaps_voxel([i, j, k]) {
-                        stats.marked += 1;
-                        mark([i, j, k]);
-                    }
+                    stats.marked += visit([i, j, k], false) as u64;
                 }
             }
         }
@@ -177,17 +200,12 @@ pub fn touched_voxels(
                     let (lo_face, hi_face) = (iw as f64, iw as f64 + 1.0);
                     let certain = hi_face >= zmin + SLACK && lo_face <= zmax - SLACK;
                     let far = hi_face < zmin - SLACK || lo_face > zmax + SLACK;
-                    let hit = if certain {
-                        true
-                    } else if far {
-                        false
-                    } else {
-                        stats.sat_tests += 1;
-                        tri.overlaps_voxel(voxel(iw))
-                    };
-                    if hit {
+                    if certain {
                         stats.marked += 1;
-                        mark(voxel(iw));
+                        visit(voxel(iw), true);
+                    } else if !far {
+                        stats.sat_tests += 1;
+                        stats.marked += visit(voxel(iw), false) as u64;
                     }
                 }
                 continue;
@@ -201,31 +219,31 @@ pub fn touched_voxels(
                 let mut hit_lo = None;
                 for iw in w0..=w1 {
                     stats.sat_tests += 1;
-                    if tri.overlaps_voxel(voxel(iw)) {
+                    if visit(voxel(iw), false) {
                         hit_lo = Some(iw);
                         break;
                     }
                 }
                 let Some(h0) = hit_lo else { continue };
+                stats.marked += 1;
                 let mut h1 = h0;
                 for iw in (h0 + 1..=w1).rev() {
                     stats.sat_tests += 1;
-                    if tri.overlaps_voxel(voxel(iw)) {
+                    if visit(voxel(iw), false) {
+                        stats.marked += 1;
                         h1 = iw;
                         break;
                     }
                 }
-                for iw in h0..=h1 {
+                // A triangle meets a column in a convex set: everything between is touched.
+                for iw in h0 + 1..h1 {
                     stats.marked += 1;
-                    mark(voxel(iw));
+                    visit(voxel(iw), true);
                 }
             } else {
                 for iw in w0..=w1 {
                     stats.sat_tests += 1;
-                    if tri.overlaps_voxel(voxel(iw)) {
-                        stats.marked += 1;
-                        mark(voxel(iw));
-                    }
+                    stats.marked += visit(voxel(iw), false) as u64;
                 }
             }
         }

@@ -114,76 +114,127 @@ pub const DEGENERATE: f64 = 1e-10;
 /// See the module documentation for the regions, the tie rules and degenerate triangles.
 #[inline]
 pub fn closest_point(p: DVec3, tri: &[DVec3; 3]) -> Closest {
-    let [v0, v1, v2] = *tri;
-    let e0 = v1 - v0;
-    let e1 = v2 - v0;
-    let diff = v0 - p;
-    let a = e0.dot(e0);
-    let b = e0.dot(e1);
-    let c = e1.dot(e1);
-    let d = e0.dot(diff);
-    let e = e1.dot(diff);
-    let det = a * c - b * b;
-    // NaN inputs make det NaN; they take the careful path too (and come out NaN, not a panic).
-    if det <= DEGENERATE * a * c || det.is_nan() {
-        return degenerate(p, tri);
-    }
-    // The unconstrained minimum, scaled by det > 0.
-    let s = b * e - c * d;
-    let t = b * d - a * e;
+    ClosestTriangle::new(tri).closest(p)
+}
 
-    let (point, s, t, feature) = if s + t <= det {
-        if s <= 0.0 {
-            if t <= 0.0 {
-                // Region 4, behind v0: the minimum is on edge 0 if Q decreases from v0 along
-                // E0 (Q_s = 2d < 0), otherwise on edge 2.
-                if d < 0.0 {
-                    on_edge0(v0, v1, e0, a, d)
+/// A triangle prepared for many [`closest_point`] queries: its edges, their Gram entries and
+/// determinant computed once rather than per query (they are most of a query's arithmetic).
+/// The answers are [`closest_point`]'s, bit for bit: that function is this one.
+#[derive(Clone, Copy, Debug)]
+pub struct ClosestTriangle {
+    v: [DVec3; 3],
+    e0: DVec3,
+    e1: DVec3,
+    a: f64,
+    b: f64,
+    c: f64,
+    det: f64,
+    /// Whether the face is usable: not degenerate and no NaN.
+    face: bool,
+}
+
+impl ClosestTriangle {
+    /// Prepare `tri`.
+    #[inline]
+    pub fn new(tri: &[DVec3; 3]) -> ClosestTriangle {
+        let [v0, v1, v2] = *tri;
+        let e0 = v1 - v0;
+        let e1 = v2 - v0;
+        let a = e0.dot(e0);
+        let b = e0.dot(e1);
+        let c = e1.dot(e1);
+        let det = a * c - b * b;
+        // NaN inputs make det NaN; they take the careful path too (and come out NaN, not a
+        // panic).
+        let face = !(det <= DEGENERATE * a * c || det.is_nan());
+        ClosestTriangle {
+            v: *tri,
+            e0,
+            e1,
+            a,
+            b,
+            c,
+            det,
+            face,
+        }
+    }
+
+    /// The closest point of the triangle to `p`.
+    #[inline]
+    pub fn closest(&self, p: DVec3) -> Closest {
+        let ClosestTriangle {
+            v: [v0, v1, v2],
+            e0,
+            e1,
+            a,
+            b,
+            c,
+            det,
+            face,
+        } = *self;
+        if !face {
+            return degenerate(p, &self.v);
+        }
+        let diff = v0 - p;
+        let d = e0.dot(diff);
+        let e = e1.dot(diff);
+        // The unconstrained minimum, scaled by det > 0.
+        let s = b * e - c * d;
+        let t = b * d - a * e;
+
+        let (point, s, t, feature) = if s + t <= det {
+            if s <= 0.0 {
+                if t <= 0.0 {
+                    // Region 4, behind v0: the minimum is on edge 0 if Q decreases from v0 along
+                    // E0 (Q_s = 2d < 0), otherwise on edge 2.
+                    if d < 0.0 {
+                        on_edge0(v0, v1, e0, a, d)
+                    } else {
+                        on_edge2(v0, v2, e1, c, e)
+                    }
                 } else {
+                    // Region 3 (and s̄ = 0 exactly): edge 2.
                     on_edge2(v0, v2, e1, c, e)
                 }
+            } else if t <= 0.0 {
+                // Region 5 (and t̄ = 0 exactly): edge 0.
+                on_edge0(v0, v1, e0, a, d)
+            } else if s + t < det {
+                // Region 0, strictly inside: the foot of the perpendicular.
+                let inv = 1.0 / det;
+                let (s, t) = (s * inv, t * inv);
+                (v0 + e0 * s + e1 * t, s, t, Feature::Face)
             } else {
-                // Region 3 (and s̄ = 0 exactly): edge 2.
+                // s̄ + t̄ = 1 exactly: edge 1.
+                on_edge1(v1, v2, a, b, c, d, e)
+            }
+        } else if s < 0.0 {
+            // Region 2, behind v2. At v2 = T(0, 1), Q_s / 2 = b + d and Q_t / 2 = c + e; along
+            // edge 1 towards v1 (direction (1, -1)) Q decreases iff b + d < c + e.
+            if b + d < c + e {
+                on_edge1(v1, v2, a, b, c, d, e)
+            } else {
                 on_edge2(v0, v2, e1, c, e)
             }
-        } else if t <= 0.0 {
-            // Region 5 (and t̄ = 0 exactly): edge 0.
-            on_edge0(v0, v1, e0, a, d)
-        } else if s + t < det {
-            // Region 0, strictly inside: the foot of the perpendicular.
-            let inv = 1.0 / det;
-            let (s, t) = (s * inv, t * inv);
-            (v0 + e0 * s + e1 * t, s, t, Feature::Face)
+        } else if t < 0.0 {
+            // Region 6, behind v1. At v1 = T(1, 0), Q_s / 2 = a + d and Q_t / 2 = b + e; along
+            // edge 1 towards v2 (direction (-1, 1)) Q decreases iff b + e < a + d.
+            if b + e < a + d {
+                on_edge1(v1, v2, a, b, c, d, e)
+            } else {
+                on_edge0(v0, v1, e0, a, d)
+            }
         } else {
-            // s̄ + t̄ = 1 exactly: edge 1.
+            // Region 1: edge 1.
             on_edge1(v1, v2, a, b, c, d, e)
+        };
+        Closest {
+            point,
+            s,
+            t,
+            dist_sq: (point - p).length_squared(),
+            feature,
         }
-    } else if s < 0.0 {
-        // Region 2, behind v2. At v2 = T(0, 1), Q_s / 2 = b + d and Q_t / 2 = c + e; along
-        // edge 1 towards v1 (direction (1, -1)) Q decreases iff b + d < c + e.
-        if b + d < c + e {
-            on_edge1(v1, v2, a, b, c, d, e)
-        } else {
-            on_edge2(v0, v2, e1, c, e)
-        }
-    } else if t < 0.0 {
-        // Region 6, behind v1. At v1 = T(1, 0), Q_s / 2 = a + d and Q_t / 2 = b + e; along
-        // edge 1 towards v2 (direction (-1, 1)) Q decreases iff b + e < a + d.
-        if b + e < a + d {
-            on_edge1(v1, v2, a, b, c, d, e)
-        } else {
-            on_edge0(v0, v1, e0, a, d)
-        }
-    } else {
-        // Region 1: edge 1.
-        on_edge1(v1, v2, a, b, c, d, e)
-    };
-    Closest {
-        point,
-        s,
-        t,
-        dist_sq: (point - p).length_squared(),
-        feature,
     }
 }
 

@@ -29,16 +29,20 @@ pub(super) struct Item {
 /// not claimed from a shared counter, so the two subtrees are built in parallel (`rayon::join`,
 /// for nodes of at least 4096 points) and the result does not depend on the number of threads.
 ///
-/// Each node's sphere costs O(its points), so the build is O(n log n): the centre is that of the
-/// minimal sphere of a small core set — the extreme points along x, y and z (for nodes of at
-/// most 64 points, the leaves and the levels just above them, only the two along the box's
-/// longest side), grown by the farthest point from the current centre a few times,
-/// Bădoiu–Clarkson style, each step one pass. When the core set's sphere holds every point it is the minimal sphere; when the steps
-/// run out first, the bounding box's centre and the centroid are tried too, and the centre
-/// whose farthest point is nearest wins. The radius is that farthest distance measured in `f32`
-/// from the stored `f32` centre, then raised by a few ulps, so that containment holds when
-/// re-checked in `f32`. The normal cone, set once the points are in tree order, is the mean
-/// normal and the smallest cosine to it, lowered by two ulps.
+/// Each node's centre is that of the minimal sphere of a small core set — the first points on
+/// the two faces of its bounding box across the longest side — grown by the farthest point
+/// from the current centre a few times, Bădoiu–Clarkson style. When the core set's sphere holds
+/// every point it is the minimal sphere; when the steps run out first, the bounding box's
+/// centre and the centroid are tried too, and the centre whose farthest point is nearest wins.
+/// Nodes of at most 64 points (the leaves and the two levels above them) find each farthest
+/// point by a pass over their points, before they are split. Larger nodes are fitted after
+/// their subtree is built, and find it by branch and bound over their descendants' spheres,
+/// which reads a few leaves along the rim instead of every point: the build stays
+/// O(n log n), for the median splits and one pass a level for the boxes that choose the split
+/// axes. The radius is that farthest distance measured in `f32` from the stored `f32` centre,
+/// then raised by a few ulps, so that containment holds when re-checked in `f32`. The normal
+/// cone, set once the points are in tree order, is the mean normal and the smallest cosine to
+/// it, lowered by two ulps.
 ///
 /// # Panics
 /// If `points` and `normals` differ in length, `leaf_size` is 0, there are 2³¹ points or more,
@@ -68,9 +72,7 @@ pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree
         .collect();
     let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
     let (root, rest) = nodes.split_first_mut().expect("at least one node");
-    let mut buffer = vec![0.0f32; 4 * items.len()];
-    let cols = Columns::new(&mut buffer, items.len());
-    build_node(&mut items, cols, leaf_size, 0, 0, root, rest, 1);
+    build_node(&mut items, leaf_size, 0, 0, root, rest, 1);
     let order: Vec<u32> = items.par_iter().map(|it| it.id).collect();
     set_cones(&mut nodes, normals, &order);
     let tree = SphereTree {
@@ -121,11 +123,75 @@ pub(super) fn subtree_nodes(n: usize, leaf: usize) -> usize {
 
 /// Builds the subtree over `items`, with at most `leaf` points a leaf, into `node` and its
 /// descendants' block `desc`, which starts at node index `desc_base` and holds exactly
-/// `subtree_nodes(items.len(), leaf) - 1` nodes.
+/// `subtree_nodes(items.len(), leaf) - 1` nodes, and returns the summary of its points.
+///
+/// A node of more than [`SMALL_NODE`] points is fitted after its subtree: its box (one pass)
+/// picks the split axis, the children are built, and then the farthest points of the core-set
+/// steps come from the children's spheres ([`farthest_below`]), not from passes over every
+/// point. Smaller nodes are fitted from their points first ([`build_small`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn build_node(
     items: &mut [Item],
-    cols: Columns,
+    leaf: usize,
+    point_start: u32,
+    depth: u32,
+    node: &mut SphereNode,
+    desc: &mut [SphereNode],
+    desc_base: u32,
+) -> Summary {
+    if items.len() <= SMALL_NODE {
+        build_small(items, leaf, point_start, depth, node, desc, desc_base);
+        return Summary::of(items, point_start);
+    }
+    *node = unfitted(point_start, items.len(), depth);
+    if items.len() <= leaf {
+        // A leaf larger than a small node: only with leaves of more than 64 points.
+        let summary = Summary::of(items, point_start);
+        let (center, radius) = fit_large(items, point_start, &summary, |c| farthest_scan(items, c));
+        (node.center, node.radius) = (center.to_array(), radius);
+        return summary;
+    }
+    let (lo, hi) = bounds(items);
+    let axis = longest_axis(hi - lo);
+    let (left, right) = split(
+        items,
+        leaf,
+        point_start,
+        depth,
+        axis,
+        node,
+        desc,
+        desc_base,
+        &|it, s, d, n, de, b| build_node(it, leaf, s, d, n, de, b),
+    );
+    let summary = left.merge(&right);
+    let (center, radius) = fit_large(items, point_start, &summary, |c| {
+        farthest_below(desc, desc_base, items, point_start, c)
+    });
+    (node.center, node.radius) = (center.to_array(), radius);
+    summary
+}
+
+/// A leaf over `count` points from `point_start`, its sphere and cone not set yet.
+fn unfitted(point_start: u32, count: usize, depth: u32) -> SphereNode {
+    SphereNode {
+        center: [0.0; 3],
+        radius: 0.0,
+        // Set by `set_cones` once the points are in tree order.
+        cone_axis: [0.0; 3],
+        cone_cos: -1.0,
+        first_child: NO_CHILD,
+        point_start,
+        point_count: count as u32,
+        depth,
+    }
+}
+
+/// Builds a subtree of at most [`SMALL_NODE`] points: each node is fitted from its points
+/// ([`fit_small`]), which also gives its split axis, and then split.
+#[allow(clippy::too_many_arguments)]
+fn build_small(
+    items: &mut [Item],
     leaf: usize,
     point_start: u32,
     depth: u32,
@@ -133,25 +199,41 @@ pub(super) fn build_node(
     desc: &mut [SphereNode],
     desc_base: u32,
 ) {
-    let mut cols = cols;
-    let fit = fit(items, &mut cols);
-    *node = SphereNode {
-        center: fit.center.to_array(),
-        radius: fit.radius,
-        // Set by `set_cones` once the points are in tree order.
-        cone_axis: [0.0; 3],
-        cone_cos: -1.0,
-        first_child: NO_CHILD,
-        point_start,
-        point_count: items.len() as u32,
-        depth,
-    };
-    if items.len() <= leaf {
-        debug_assert!(desc.is_empty());
-        return;
+    let fit = fit_small(items);
+    *node = unfitted(point_start, items.len(), depth);
+    (node.center, node.radius) = (fit.center.to_array(), fit.radius);
+    if items.len() > leaf {
+        let axis = fit.split_axis;
+        split(
+            items,
+            leaf,
+            point_start,
+            depth,
+            axis,
+            node,
+            desc,
+            desc_base,
+            &|it, s, d, n, de, b| build_small(it, leaf, s, d, n, de, b),
+        );
     }
+}
+
+/// Splits `node`'s items at the median along `axis` and builds the two children with
+/// `child(items, point_start, depth, node, desc, desc_base)` (the arguments of
+/// [`build_node`] but `leaf`), returning what it returns for each, left first.
+#[allow(clippy::too_many_arguments)]
+fn split<R: Send>(
+    items: &mut [Item],
+    leaf: usize,
+    point_start: u32,
+    depth: u32,
+    axis: usize,
+    node: &mut SphereNode,
+    desc: &mut [SphereNode],
+    desc_base: u32,
+    child: &(impl Fn(&mut [Item], u32, u32, &mut SphereNode, &mut [SphereNode], u32) -> R + Sync),
+) -> (R, R) {
     let mid = items.len() / 2;
-    let axis = fit.split_axis;
     // Ties broken by the original index: a strict total order, so which points go left is
     // decided by the input alone. One closure per axis keeps the axis out of the inner loop.
     match axis {
@@ -161,7 +243,6 @@ pub(super) fn build_node(
     };
     let parallel = items.len() >= PARALLEL_MIN_POINTS;
     let (left_items, right_items) = items.split_at_mut(mid);
-    let (left_cols, right_cols) = cols.split_at(mid);
     let (pair, rest) = desc.split_at_mut(2);
     let (left_desc, right_desc) = rest.split_at_mut(subtree_nodes(mid, leaf) - 1);
     debug_assert_eq!(right_desc.len(), subtree_nodes(right_items.len(), leaf) - 1);
@@ -172,35 +253,12 @@ pub(super) fn build_node(
     let left_base = desc_base + 2;
     let right_base = left_base + left_desc.len() as u32;
     let right_start = point_start + mid as u32;
-    let go_left = move || {
-        build_node(
-            left_items,
-            left_cols,
-            leaf,
-            point_start,
-            depth + 1,
-            left,
-            left_desc,
-            left_base,
-        )
-    };
-    let go_right = move || {
-        build_node(
-            right_items,
-            right_cols,
-            leaf,
-            right_start,
-            depth + 1,
-            right,
-            right_desc,
-            right_base,
-        )
-    };
+    let mut go_left = move || child(left_items, point_start, depth + 1, left, left_desc, left_base);
+    let mut go_right = move || child(right_items, right_start, depth + 1, right, right_desc, right_base);
     if parallel {
-        rayon::join(go_left, go_right);
+        rayon::join(go_left, go_right)
     } else {
-        go_left();
-        go_right();
+        (go_left(), go_right())
     }
 }
 

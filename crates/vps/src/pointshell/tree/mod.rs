@@ -46,17 +46,6 @@ pub const NO_CHILD: u32 = u32::MAX;
 /// work of a subtree (under a millisecond) is too small to be worth a task.
 const PARALLEL_MIN_POINTS: usize = 4096;
 
-/// Core-set refinement steps per node (see [`build`]). Each costs one pass over the node's
-/// points, and they stop early once the core set's ball holds every point. Measured on 200k
-/// points of sphere, torus and box surfaces and of a solid ball: node radius over minimal
-/// radius, mean 1.007–1.026 and worst 1.13–1.19 with no step; mean 1.00001 and worst 1.01–1.05
-/// after 4 steps; mean 1.000001 and worst 1.00001 after 8. On 1M points the 8 steps take 1.3 to
-/// 2.7 passes per node on average and add 10–20% to the build: paid once, when building, for tighter spheres in every query.
-const CORE_SET_STEPS: usize = 8;
-
-/// Up to six extreme points start the core set, and each refinement step adds one.
-const CORE_SET_CAPACITY: usize = 6 + CORE_SET_STEPS;
-
 /// One node of the sphere tree: 48 bytes, little-endian, no padding, so that a file of them can
 /// be memory-mapped and cast to `&[SphereNode]` in place.
 #[repr(C)]
