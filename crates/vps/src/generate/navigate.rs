@@ -264,7 +264,9 @@ impl Shadow {
         let edges = std::array::from_fn(|k| {
             let (s, e) = (p[k], p[(k + 1) % 3]);
             let (a, b) = (-(e[1] - s[1]) * sign, (e[0] - s[0]) * sign);
-            let len = a.hypot(b);
+            // Grid coordinates are far from overflow, so the plain root serves (`hypot`, which
+            // guards against it, was the costliest call of a triangle's setup).
+            let len = (a * a + b * b).sqrt();
             if len == 0.0 {
                 // A degenerate shadow covers no pixel.
                 return [0.0, 0.0, -1.0];

@@ -30,15 +30,21 @@ pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3], order: &[u32
     }
     let (xs, rest) = buffer.split_at(n);
     let (ys, zs) = rest.split_at(n);
-    let mut sums = vec![DVec3::ZERO; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        sums[i] = match nodes[i].children() {
-            Some([l, r]) => sums[l] + sums[r],
-            None => nodes[i]
+    // The leaves in parallel (they hold every normal), then the parents, each two additions.
+    let mut sums: Vec<DVec3> = nodes
+        .par_iter()
+        .map(|node| match node.children() {
+            Some(_) => DVec3::ZERO,
+            None => node
                 .points()
                 .map(|j| DVec3::new(xs[j] as f64, ys[j] as f64, zs[j] as f64))
                 .sum(),
-        };
+        })
+        .collect();
+    for i in (0..nodes.len()).rev() {
+        if let Some([l, r]) = nodes[i].children() {
+            sums[i] = sums[l] + sums[r];
+        }
     }
     nodes.par_iter_mut().zip(&sums).for_each(|(node, sum)| {
         let r = node.points();
