@@ -323,7 +323,8 @@ fn refine<const N: usize>(
 /// The bounding sphere of a node of more than [`SMALL_NODE`] points, as (centre, radius):
 /// `items` are its points in tree order, the first being point `first` of the tree, `summary`
 /// theirs, and `farthest(c)` the largest squared distance from `c` with the index in `items`
-/// of the first point at it. The core set starts from the first points on the box's faces.
+/// of the first point at it. The core set starts from the first points on the two faces of the
+/// box across its longest side.
 pub(super) fn fit_large(
     items: &[Item],
     first: u32,
