@@ -23,7 +23,7 @@ pub(super) struct Summary {
     face: [u32; 6],
     /// The coordinate of that face.
     value: [f32; 6],
-    /// The sum of the points, in f64 (a million f32 additions would lose the low bits).
+    /// The sum of the points ([`point_sum`]).
     sum: DVec3,
 }
 
@@ -33,8 +33,6 @@ impl Summary {
         let p0 = items[0].p.to_array();
         let mut face = [first; 6];
         let mut value = [p0[0], p0[1], p0[2], p0[0], p0[1], p0[2]];
-        // Three scalar sums, which the compiler keeps in registers.
-        let mut sum = [0.0f64; 3];
         for (i, it) in items.iter().enumerate() {
             let p = it.p.to_array();
             for a in 0..3 {
@@ -45,13 +43,12 @@ impl Summary {
                 if p[a] > value[3 + a] {
                     (value[3 + a], face[3 + a]) = (p[a], first + i as u32);
                 }
-                sum[a] += f64::from(p[a]);
             }
         }
         Summary {
             face,
             value,
-            sum: DVec3::from_array(sum),
+            sum: point_sum(items),
         }
     }
 
@@ -72,10 +69,6 @@ impl Summary {
     }
 }
 
-/// Lanes of the column passes: independent running maxima, so that a pass is not one long
-/// chain of dependent comparisons and the compiler can keep them in vector registers.
-pub(super) const LANES: usize = 4;
-
 /// The bounding box of `items` (not empty), in halves in parallel above
 /// [`PARALLEL_PASS_POINTS`]: a minimum and a maximum do not depend on the order.
 pub(super) fn bounds(items: &[Item]) -> (Vec3, Vec3) {
@@ -87,37 +80,34 @@ pub(super) fn bounds(items: &[Item]) -> (Vec3, Vec3) {
     // Four independent running boxes, so that the comparisons are not one chain, each in four
     // lanes (the fourth repeats x), which compile to vector minima and maxima; `Vec3::min` and
     // `max` take care of NaN and do not.
-    let p0 = items[0].p;
-    let start = [p0.x, p0.y, p0.z, p0.x];
+    let lanes = |p: Vec3| [p.x, p.y, p.z, p.x];
+    let widen = |lo: &mut [f32; 4], hi: &mut [f32; 4], v: [f32; 4]| {
+        for k in 0..4 {
+            lo[k] = if v[k] < lo[k] { v[k] } else { lo[k] };
+            hi[k] = if v[k] > hi[k] { v[k] } else { hi[k] };
+        }
+    };
+    let start = lanes(items[0].p);
     let (mut lo, mut hi) = ([start; 4], [start; 4]);
     let chunks = items.chunks_exact(4);
     let rest = chunks.remainder();
     for chunk in chunks {
         for j in 0..4 {
-            let p = chunk[j].p;
-            let v = [p.x, p.y, p.z, p.x];
-            for k in 0..4 {
-                lo[j][k] = if v[k] < lo[j][k] { v[k] } else { lo[j][k] };
-                hi[j][k] = if v[k] > hi[j][k] { v[k] } else { hi[j][k] };
-            }
+            widen(&mut lo[j], &mut hi[j], lanes(chunk[j].p));
         }
     }
     for it in rest {
-        let v = [it.p.x, it.p.y, it.p.z, it.p.x];
-        for k in 0..4 {
-            lo[0][k] = if v[k] < lo[0][k] { v[k] } else { lo[0][k] };
-            hi[0][k] = if v[k] > hi[0][k] { v[k] } else { hi[0][k] };
-        }
+        widen(&mut lo[0], &mut hi[0], lanes(it.p));
     }
-    let pick = |boxes: &[[f32; 4]; 4], a: usize, better: fn(f32, f32) -> bool| {
-        boxes
-            .iter()
-            .map(|b| b[a])
-            .fold(boxes[0][a], |m, x| if better(x, m) { x } else { m })
-    };
-    let lo = Vec3::from_array(std::array::from_fn(|a| pick(&lo, a, |x, m| x < m)));
-    let hi = Vec3::from_array(std::array::from_fn(|a| pick(&hi, a, |x, m| x > m)));
-    (lo, hi)
+    for j in 1..4 {
+        let (l, h) = (lo[j], hi[j]);
+        widen(&mut lo[0], &mut hi[0], l);
+        widen(&mut lo[0], &mut hi[0], h);
+    }
+    (
+        Vec3::new(lo[0][0], lo[0][1], lo[0][2]),
+        Vec3::new(hi[0][0], hi[0][1], hi[0][2]),
+    )
 }
 
 /// Nodes with at least this many points find their box in parallel: only the first levels of a
@@ -162,6 +152,10 @@ pub(super) fn farthest(p: [&[f32]; 3], c: Vec3) -> f32 {
     fold_lanes(p, 0.0, |x, y, z| dist2(x, y, z, c), larger)
 }
 
+/// Lanes of the column passes: independent running maxima, so that a pass is not one long
+/// chain of dependent comparisons and the compiler can keep them in vector registers.
+pub(super) const LANES: usize = 4;
+
 /// Folds `value` of each point of the columns `p` with `pick`, starting from `init`, in
 /// [`LANES`] independent lanes and then across them. `pick` must be a maximum or a minimum:
 /// those do not round, so the lanes find what one scan finds.
@@ -192,9 +186,9 @@ pub(super) fn fold_lanes(
     m
 }
 
-/// The centroid of `items`, summed in f64 (a million f32 additions would lose its low bits)
+/// The sum of the points of `items`, in f64 (a million f32 additions would lose its low bits)
 /// and in item order, so that the same items in the same order give the same bits.
-fn centroid(items: &[Item]) -> Vec3 {
+fn point_sum(items: &[Item]) -> DVec3 {
     // Three scalar sums, which the compiler keeps in registers.
     let mut s = [0.0f64; 3];
     for it in items {
@@ -202,7 +196,7 @@ fn centroid(items: &[Item]) -> Vec3 {
         s[1] += f64::from(it.p.y);
         s[2] += f64::from(it.p.z);
     }
-    (DVec3::from_array(s) / items.len() as f64).as_vec3()
+    DVec3::from_array(s)
 }
 
 /// Nodes of at most this many points take [`fit_small`]: the leaves and the two levels above
@@ -213,9 +207,9 @@ pub(super) const SMALL_NODE: usize = 64;
 const SMALL_STEPS: usize = 12;
 
 /// The bounding sphere and split axis of a node of at most [`SMALL_NODE`] points, fitted before
-/// it is split: the points are copied to columns on the stack in one pass that also finds the box and its first
-/// extreme points, and the core set starts from the two extremes along the box's longest
-/// side, whose diametral ball needs no solve. Leaves are small patches of surface, whose
+/// it is split: the points are copied to columns on the stack in one pass that also finds the
+/// box and its first extreme points, and the core set starts from the two extremes along the
+/// box's longest side, whose diametral ball needs no solve. Leaves are small patches of surface, whose
 /// minimal sphere is pinned by two to four points: starting from six made every leaf pay for a
 /// Welzl solve on points that mostly do not matter (measured: that start was a third of a
 /// leaf's time).
@@ -258,7 +252,7 @@ pub(super) fn fit_small(items: &[Item]) -> Fit {
         },
     );
     if !converged {
-        for c in [lo * 0.5 + hi * 0.5, centroid(items)] {
+        for c in [lo * 0.5 + hi * 0.5, (point_sum(items) / len as f64).as_vec3()] {
             let f = farthest(p, c);
             if f < best_far2 {
                 (best, best_far2) = (c, f);
@@ -415,10 +409,12 @@ pub(super) fn farthest_below(desc: &[SphereNode], desc_base: u32, items: &[Item]
         }
     };
     // Depth-first, the child with the larger bound first; a stack of (node, bound) holds at
-    // most one pending sibling per level.
-    let mut stack = [(0u32, 0.0f64); 2 * 32];
+    // most one pending sibling per level, and a tree of fewer than 2³¹ points has fewer than
+    // 32 levels.
+    const STACK: usize = 2 * 32;
+    let mut stack = [(0u32, 0.0f64); STACK];
     let mut len = 0;
-    let push_pair = |stack: &mut [(u32, f64); 64], len: &mut usize, k: usize| {
+    let push_pair = |stack: &mut [(u32, f64); STACK], len: &mut usize, k: usize| {
         let (b0, b1) = (bound(&desc[k]), bound(&desc[k + 1]));
         let (near, far) = if b1 > b0 {
             ((k, b0), (k + 1, b1))
