@@ -160,16 +160,19 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
         assert_eq!(cur.distance_at(u), want, "at {u}");
         batch.push(u);
         // The batched interpolation of the contact query gives the same bits in the grid, and
-        // 0 beyond it and for the points left out.
+        // 0 beyond it and for the lanes past the batch's length.
         if batch.len() == 16 || rng.below(8) == 0 {
-            let mut us = [glam::DVec3::ZERO; 16];
-            us[..batch.len()].copy_from_slice(&batch);
-            let live: [bool; 16] = std::array::from_fn(|k| k < batch.len() && rng.below(4) != 0);
+            let mut us = [[f64::NAN; 16]; 3];
+            for (k, u) in batch.iter().enumerate() {
+                (us[0][k], us[1][k], us[2][k]) = (u.x, u.y, u.z);
+            }
+            let n = batch.len();
             let mut got = [f64::NAN; 16];
-            batch_cur.distances_at(&us, &live, &mut got);
+            batch_cur.distances_at(&us, n, &mut got);
+            assert!(got[n..].iter().all(|&d| d == 0.0), "past the batch");
             for (k, u) in batch.drain(..).enumerate() {
                 let inside = (0..3).all(|a| u[a] >= 0.0 && u[a] < dims[a]);
-                let want = if inside && live[k] { cur.distance_at(u) } else { 0.0 };
+                let want = if inside { cur.distance_at(u) } else { 0.0 };
                 assert_eq!(got[k].to_bits(), want.to_bits(), "at {u}, batched");
             }
         }

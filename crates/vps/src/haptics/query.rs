@@ -7,7 +7,6 @@
 //! the number of threads, and, because a culled node holds no point in contact (adding nothing
 //! is exact in floating point), the culled walk and the brute-force walk give the same bits.
 
-use std::ops::Range;
 use std::time::{Duration, Instant};
 
 use glam::{DMat3, DVec3, Vec3};
@@ -19,14 +18,14 @@ use crate::geometry::Pose;
 use crate::pointshell::tree::SphereNode;
 use crate::pointshell::PointshellData;
 use crate::storage::StorageError;
+pub(crate) use kernel::area_weight;
+
+mod kernel;
 
 /// The exact walk sums the points of each node of at most this many points on one thread.
 /// Smaller blocks balance two cores better; larger ones cost fewer tasks. Changing it changes
 /// the rounding of the sums (never the counts), so it is a constant, not a parameter.
 pub const BLOCK_POINTS: u32 = 2048;
-
-/// Points placed and looked up together in [`Frame::test_points`]: a leaf's worth.
-const BATCH: usize = 16;
 
 /// Below this many candidate points a query runs on the calling thread: waking the pool costs
 /// more than it saves.
@@ -146,57 +145,6 @@ impl Contact {
         self.points_approximated += o.points_approximated;
         self.force_error_bound += o.force_error_bound;
         self.torque_error_bound += o.torque_error_bound;
-    }
-}
-
-/// The surface area a pointshell point stands for, in units of the pointshell's voxel face,
-/// from its unit normal `n` in the pointshell's frame: `1 / (|n_x| + |n_y| + |n_z|)`.
-///
-/// The points are one per voxel that the surface touches, and a plane of unit normal `n`
-/// touches the voxels whose centres lie within `(|n_x| + |n_y| + |n_z|) / 2` voxels of it: a
-/// slab holding that many voxels per voxel face of area. So a face at 45° to the lattice has
-/// √2 times the points of an aligned one, and without this weight it pushes √2 times as hard
-/// at the same depth (`docs/HAPTICS.md`). The weight is at most 1 (an aligned face) and at
-/// least 1/√3.
-#[inline(always)]
-pub(crate) fn area_weight(n: Vec3) -> f64 {
-    1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
-}
-
-/// The running sums of [`Frame::test_points`], which live in registers for its loop and are
-/// stored back after it: the same terms in the same order as adding into a [`Contact`].
-struct Sums {
-    force: DVec3,
-    torque: DVec3,
-    touching: u64,
-    deepest: f64,
-}
-
-impl Sums {
-    #[inline(always)]
-    fn of(acc: &Contact) -> Sums {
-        Sums {
-            force: acc.force,
-            torque: acc.torque,
-            touching: 0,
-            deepest: acc.max_penetration,
-        }
-    }
-
-    /// A point at `p` of normal `n` (the pointshell's frame) pushing with `f`, `d` deep.
-    #[inline(always)]
-    fn add(&mut self, p: Vec3, n: DVec3, f: f64, d: f64) {
-        self.force += n * f;
-        self.torque += p.as_dvec3().cross(n) * f;
-        self.deepest = self.deepest.max(d);
-    }
-
-    #[inline(always)]
-    fn store(self, acc: &mut Contact) {
-        acc.force = self.force;
-        acc.torque = self.torque;
-        acc.points_in_contact += self.touching;
-        acc.max_penetration = self.deepest;
     }
 }
 
@@ -347,88 +295,6 @@ impl<'a> Frame<'a> {
         }
     }
 
-    /// Test points `range`, adding to `acc` in index order.
-    ///
-    /// Force and torque are summed in the pointshell's frame and without the stiffness,
-    /// `Σ f·n` and `Σ f·(p × n)` with `f` the penetration (with interpolated distances, times
-    /// the point's [`area_weight`]); [`Frame::finish`] turns them into world force and torque
-    /// once per query. So no normal is rotated, and the stiffness scales the result exactly.
-    #[inline]
-    fn test_points(&self, cur: &mut Cursor<'_>, range: Range<usize>, acc: &mut Contact) {
-        acc.points_tested += range.len() as u64;
-        let points = &self.points[range.clone()];
-        let normals = &self.normals[range];
-        if self.distance {
-            self.test_points_distance(cur, points, normals, acc);
-        } else {
-            self.test_points_layers(cur, points, normals, acc);
-        }
-    }
-
-    /// [`Frame::test_points`] with interpolated distances.
-    #[inline]
-    fn test_points_distance(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
-        let mut sums = Sums::of(acc);
-        // In batches, each pass over a batch independent of the others, so the processor
-        // overlaps the points' long dependency chains (place, look up, interpolate) instead of
-        // running them one after another.
-        for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
-            let mut u = [DVec3::ZERO; BATCH];
-            for (u, p) in u.iter_mut().zip(ps) {
-                *u = self.units(*p);
-            }
-            // The interpolation reads the voxels one step around the point's: none is ≥ 0 when
-            // the point's own is ≤ −2 (see `classify`), so it would be ≤ 0. A value costs less
-            // than a distance.
-            let mut live = [false; BATCH];
-            for (live, u) in live.iter_mut().zip(&u[..ps.len()]) {
-                *live = cur.in_grid(*u).is_some_and(|(value, _)| value > -2);
-            }
-            let mut d = [0.0f64; BATCH];
-            cur.distances_at(&u, &live, &mut d);
-            for (k, (p, n)) in ps.iter().zip(ns).enumerate() {
-                // As `point_depth` measures it.
-                let d = self.s * d[k];
-                if d > 0.0 {
-                    sums.touching += 1;
-                    sums.add(*p, n.as_dvec3(), d * area_weight(*n), d);
-                }
-            }
-        }
-        sums.store(acc);
-    }
-
-    /// [`Frame::test_points`] with the paper's layers.
-    #[inline]
-    fn test_points_layers(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
-        let mut sums = Sums::of(acc);
-        for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
-            let mut u = [DVec3::ZERO; BATCH];
-            for (u, p) in u.iter_mut().zip(ps) {
-                *u = self.units(*p);
-            }
-            let mut hit = [(i8::MIN, [0u32; 3]); BATCH];
-            for (hit, u) in hit.iter_mut().zip(&u[..ps.len()]) {
-                if let Some(h) = cur.in_grid(*u) {
-                    *hit = h;
-                }
-            }
-            for (k, (p, n)) in ps.iter().zip(ns).enumerate() {
-                let (value, v) = hit[k];
-                if value < 0 {
-                    continue;
-                }
-                sums.touching += 1;
-                let n = n.as_dvec3();
-                let d = self.penetration(value, v, u[k], self.rot * n);
-                if d > 0.0 {
-                    sums.add(*p, n, d, d);
-                }
-            }
-        }
-        sums.store(acc);
-    }
-
     /// Whether the voxmap proves that no point of `node` lies in a voxel ≥ 0.
     #[inline]
     fn is_outside(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<bool, StorageError> {
@@ -492,10 +358,15 @@ impl<'a> Frame<'a> {
     /// Depth-first walk below `root` (already found not outside when `root_tested`), left
     /// child first, so points are summed in index order. Below a node proved inside, every
     /// point is tested without testing more nodes.
+    ///
+    /// Nodes whose points follow one another are tested as one range, so the batches of
+    /// `test_points` stay full (a leaf holds 8 to 16 points): the same points in the same
+    /// order, so the same sums.
     fn walk(&self, root: usize, root_tested: bool, acc: &mut Contact) -> Result<(), StorageError> {
         let mut cur = self.voxmap.cursor();
         let mut stack: Vec<(usize, bool)> = Vec::with_capacity(64);
         stack.push((root, root_tested));
+        let mut pending = 0..0;
         while let Some((i, tested)) = stack.pop() {
             let node = &self.nodes[i];
             let mut inside = false;
@@ -515,9 +386,17 @@ impl<'a> Frame<'a> {
                     stack.push((b, false));
                     stack.push((a, false));
                 }
-                _ => self.test_points(&mut cur, node.points(), acc),
+                _ => {
+                    let points = node.points();
+                    if points.start == pending.end {
+                        pending.end = points.end;
+                    } else {
+                        self.test_points(&mut cur, std::mem::replace(&mut pending, points), acc);
+                    }
+                }
             }
         }
+        self.test_points(&mut cur, pending, acc);
         cur.finish()
     }
 

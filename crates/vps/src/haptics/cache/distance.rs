@@ -2,6 +2,8 @@
 //! come from one *apron* per brick, the brick's distances and the first layer of its three
 //! upper neighbours, kept in the cursor's table.
 
+use std::ops::Range;
+
 use glam::DVec3;
 
 use super::{same, Cursor};
@@ -15,10 +17,12 @@ const APRON_EDGE: usize = BRICK as usize + 1;
 /// The distances of a brick's apron, x fastest, in steps of [`DISTANCE_STEP`].
 pub(super) type Apron = [i16; APRON_EDGE * APRON_EDGE * APRON_EDGE];
 
-/// Aprons a cursor table keeps, direct-mapped by brick coordinates (8 × 4 × 8 bricks): 1.4 KiB
+/// Aprons a cursor table keeps, direct-mapped by brick coordinates (8 × 8 × 8 bricks): 1.4 KiB
 /// each. Gathering the eight corners of an interpolation from up to eight bricks, each
-/// through the brick table, cost more than the rest of the point (measured).
-pub(super) const APRON_SLOTS: usize = 256;
+/// through the brick table, cost more than the rest of the point (measured). With 8 × 4 × 8,
+/// the contact patch of the 10⁵-point `vps simulate` run (about ten bricks across) evicted its
+/// own aprons, and building them was 9 % of the run; with 8 × 8 × 8, 2 %.
+pub(super) const APRON_SLOTS: usize = 512;
 
 /// Where the distances of one brick come from.
 enum BrickSource<'t> {
@@ -68,99 +72,123 @@ impl Cursor<'_> {
     #[inline(always)]
     pub fn distance_at(&mut self, u: DVec3) -> f64 {
         let (b, t) = if self.contains(u) { cell(u) } else { cell_anywhere(u) };
-        let (c, flat) = self.corners(b);
-        if flat {
-            // The same bits as blending them, sooner.
-            return c[0] * DISTANCE_STEP;
+        let mut c = [[self.far_out as i32; 1]; 8];
+        // Cells beyond `i32` lie far beyond the grid: far outside, as they start.
+        if let (Ok(x), Ok(y), Ok(z)) = (i32::try_from(b[0]), i32::try_from(b[1]), i32::try_from(b[2])) {
+            let cells = [[x], [y], [z]];
+            let m = (1i32 << BRICK_SHIFT) - 1;
+            let crossing = (x & m == m) | (y & m == m) | (z & m == m);
+            self.gather_run(cells.map(|c| c[0] >> BRICK_SHIFT), crossing, &cells, 0..1, &mut c);
         }
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let x00 = lerp(c[0], c[1], t.x);
-        let x10 = lerp(c[2], c[3], t.x);
-        let x01 = lerp(c[4], c[5], t.x);
-        let x11 = lerp(c[6], c[7], t.x);
-        let y0 = lerp(x00, x10, t.y);
-        let y1 = lerp(x01, x11, t.y);
-        lerp(y0, y1, t.z) * DISTANCE_STEP
+        blend(c.map(|c| c[0] as f64), t.to_array()) * DISTANCE_STEP
     }
 
-    /// [`Cursor::distance_at`] of the points `us[k]` with `live[k]` that lie in the grid (see
-    /// [`Cursor::contains`]), and 0 for the others: the same operations, so the same bits, a
-    /// batch at a time. The corners are gathered point by point, and the interpolation
-    /// then runs over arrays, which the compiler vectorizes.
+    /// [`Cursor::distance_at`] of the points `k < n` at grid units `(u[0][k], u[1][k],
+    /// u[2][k])` that lie in the grid (see [`Cursor::contains`]), and 0 for the others: the same
+    /// operations, so the same bits, a batch at a time. The cells and the blends run over
+    /// arrays, which the compiler vectorizes; consecutive points in one brick make a run, whose
+    /// corners come from one look-up of the brick or of its apron.
     #[inline(always)]
-    pub fn distances_at<const N: usize>(&mut self, us: &[DVec3; N], live: &[bool; N], out: &mut [f64; N]) {
-        let mut c = [[0.0f64; N]; 8];
+    pub fn distances_at<const N: usize>(&mut self, u: &[[f64; N]; 3], n: usize, out: &mut [f64; N]) {
+        let dims = self.dims_f.to_array();
+        let mut inside = [false; N];
+        for (k, inside) in inside.iter_mut().enumerate() {
+            // As `contains`: NaN fails every comparison.
+            *inside = (k < n) & (0..3).fold(true, |all, a| all & (u[a][k] >= 0.0) & (u[a][k] < dims[a]));
+        }
+        let mut cells = [[0i32; N]; 3];
         let mut t = [[0.0f64; N]; 3];
-        for k in 0..N {
-            // Zero corners and fractions interpolate to 0.
-            if live[k] && self.contains(us[k]) {
-                let (b, f) = cell(us[k]);
-                (t[0][k], t[1][k], t[2][k]) = (f.x, f.y, f.z);
-                for (j, v) in self.corners(b).0.into_iter().enumerate() {
-                    c[j][k] = v;
-                }
+        for a in 0..3 {
+            for k in 0..N {
+                // As `cell` finds them: in the grid, u − ½ is exact and its floor is the
+                // lower corner. A floor and the integer in the low bits of `f + 1.5·2⁵²` (exact
+                // for |f| < 2⁵¹; `MAX_DIM` keeps the grid's cells far below) run as vectors,
+                // where `f as i32` would check for saturation lane by lane. Points beyond the
+                // grid get meaningless cells, and are left out below.
+                let f = (u[a][k] - 0.5).floor();
+                cells[a][k] = (f + 6_755_399_441_055_744.0).to_bits() as i32;
+                t[a][k] = u[a][k] - 0.5 - f;
             }
         }
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        // Each point's brick as one key (cells are ≥ −1 in the grid), `u64::MAX` beyond the
+        // grid, and whether its cell crosses the brick's upper faces: then its corners come
+        // from the apron.
+        let mut keys = [u64::MAX; N];
+        let mut crosses = [false; N];
+        let m = (1i32 << BRICK_SHIFT) - 1;
         for k in 0..N {
-            let x00 = lerp(c[0][k], c[1][k], t[0][k]);
-            let x10 = lerp(c[2][k], c[3][k], t[0][k]);
-            let x01 = lerp(c[4][k], c[5][k], t[0][k]);
-            let x11 = lerp(c[6][k], c[7][k], t[0][k]);
-            let y0 = lerp(x00, x10, t[1][k]);
-            let y1 = lerp(x01, x11, t[1][k]);
-            out[k] = lerp(y0, y1, t[2][k]) * DISTANCE_STEP;
+            let b = [0, 1, 2].map(|a| ((cells[a][k] >> BRICK_SHIFT) + 1) as u64);
+            keys[k] = if inside[k] {
+                b[0] | b[1] << 22 | b[2] << 44
+            } else {
+                u64::MAX
+            };
+            crosses[k] = (cells[0][k] & m == m) | (cells[1][k] & m == m) | (cells[2][k] & m == m);
+        }
+        let mut c = [[0i32; N]; 8];
+        let mut k = 0;
+        while k < N {
+            let key = keys[k];
+            if key == u64::MAX {
+                k += 1;
+                continue;
+            }
+            let (mut end, mut crossing) = (k + 1, crosses[k]);
+            while end < N && keys[end] == key {
+                crossing |= crosses[end];
+                end += 1;
+            }
+            let brick = [0, 1, 2].map(|a| cells[a][k] >> BRICK_SHIFT);
+            self.gather_run(brick, crossing, &cells, k..end, &mut c);
+            k = end;
+        }
+        for k in 0..N {
+            let d = blend(std::array::from_fn(|j| c[j][k] as f64), [t[0][k], t[1][k], t[2][k]]) * DISTANCE_STEP;
+            out[k] = if inside[k] { d } else { 0.0 };
         }
     }
 
-    /// The distances of the eight voxel centres around the cell whose lower corner is voxel
-    /// `b`, in steps, x fastest, and whether they are known to be equal.
+    /// The corners of the cells `run` of `cells`, whose lower corners all lie in brick
+    /// `brick`, into `c[..][run]`: from one look-up of the brick when no cell is `crossing`
+    /// its upper faces, else of its apron.
     #[inline(always)]
-    fn corners(&mut self, b: [i64; 3]) -> ([f64; 8], bool) {
-        let brick = b.map(|x| x >> BRICK_SHIFT);
+    fn gather_run<const N: usize>(
+        &mut self,
+        brick: [i32; 3],
+        crossing: bool,
+        cells: &[[i32; N]; 3],
+        run: Range<usize>,
+        c: &mut [[i32; N]; 8],
+    ) {
         let in_grid = (0..3).all(|a| brick[a] >= 0 && (brick[a] as u64) < self.brick_dims[a]);
-        let mut corner = [0.0f64; 8];
-        let m = (1i64 << BRICK_SHIFT) - 1;
-        if in_grid && (b[0] & m) < m && (b[1] & m) < m && (b[2] & m) < m {
-            // The eight lie in one brick (seven cells in eight along each axis): read them
+        let origin = brick.map(|x| x << BRICK_SHIFT);
+        let fill = |c: &mut [[i32; N]; 8], v: i16| {
+            for row in c.iter_mut() {
+                row[run.clone()].fill(v as i32);
+            }
+        };
+        if in_grid && !crossing {
+            // Every cell lies in the brick (seven cells in eight along each axis): read them
             // there, without an apron, which costs eight brick look-ups to build.
-            let n = BRICK as usize;
-            match self.brick_source(brick.map(|c| c as u32)) {
-                BrickSource::Uniform(v) => return ([v as f64; 8], true),
-                BrickSource::Stored(ds) => {
-                    let l = b.map(|x| (x & m) as usize);
-                    let at = (l[2] * n + l[1]) * n + l[0];
-                    for (k, d) in corner.iter_mut().enumerate() {
-                        *d = ds[at + (k & 1) + ((k >> 1) & 1) * n + (k >> 2) * n * n] as f64;
-                    }
-                    return (corner, false);
-                }
+            match self.brick_source(brick.map(|x| x as u32)) {
+                BrickSource::Uniform(v) => fill(c, v),
+                BrickSource::Stored(ds) => gather::<N, { BRICK as usize }>(ds, origin, cells, run, c),
             }
+            return;
         }
-        match self.apron(brick, in_grid) {
-            // Eight equal values interpolate to that value, bit for bit (`a + (a − a)·t`).
-            Some(Err(flat)) => return ([flat as f64; 8], true),
-            Some(Ok(apron)) => {
-                // The lower corner's place in the apron; the other seven follow it.
-                let l = [0, 1, 2].map(|a| (b[a] - (brick[a] << BRICK_SHIFT)) as usize);
-                let at = (l[2] * APRON_EDGE + l[1]) * APRON_EDGE + l[0];
-                for (k, d) in corner.iter_mut().enumerate() {
-                    let off = (k & 1) + ((k >> 1) & 1) * APRON_EDGE + (k >> 2) * APRON_EDGE * APRON_EDGE;
-                    *d = apron[at + off] as f64;
-                }
-            }
+        match self.apron(brick.map(i64::from), in_grid) {
+            Some(Err(flat)) => fill(c, flat),
+            Some(Ok(apron)) => gather::<N, APRON_EDGE>(apron, origin, cells, run, c),
             None => {
-                for (k, d) in corner.iter_mut().enumerate() {
-                    let v = [
-                        b[0] + (k & 1) as i64,
-                        b[1] + ((k >> 1) & 1) as i64,
-                        b[2] + (k >> 2) as i64,
-                    ];
-                    *d = self.voxel_distance(v) as f64;
+                for k in run {
+                    for (j, row) in c.iter_mut().enumerate() {
+                        let up = neighbour(j);
+                        let v: [i64; 3] = std::array::from_fn(|a| i64::from(cells[a][k]) + up[a] as i64);
+                        row[k] = self.voxel_distance(v) as i32;
+                    }
                 }
             }
         }
-        (corner, false)
     }
 
     /// The apron of brick `b` (see [`APRON_EDGE`]), built on first use, or its one distance
@@ -186,7 +214,7 @@ impl Cursor<'_> {
     fn switch_apron(&mut self, b: [i64; 3]) -> Option<()> {
         let n = self.brick_dims;
         let key = (b[0] as u64 * n[1] + b[1] as u64) * n[2] + b[2] as u64;
-        let at = (b[0] as usize & 7) << 5 | (b[1] as usize & 3) << 3 | (b[2] as usize & 7);
+        let at = (b[0] as usize & 7) << 6 | (b[1] as usize & 7) << 3 | (b[2] as usize & 7);
         if self.table.as_ref()?.apron_keys[at] != key {
             self.build_apron(b, key, at)?;
         }
@@ -243,8 +271,14 @@ impl Cursor<'_> {
                     match source {
                         BrickSource::Stored(ds) => {
                             let from = ((z - up[2] * N) * N + (y - up[1] * N)) * N;
-                            let xs = if up[0] == 0 { from..from + N } else { from..from + 1 };
-                            cells.copy_from_slice(&ds[xs]);
+                            // A whole row or its first voxel, copied as such: a copy of a
+                            // length known only at run time is a library call, which cost as
+                            // much as the rest of the apron (measured).
+                            if let Ok(row) = <&mut [i16; N]>::try_from(&mut *cells) {
+                                row.copy_from_slice(&ds[from..from + N]);
+                            } else {
+                                cells[0] = ds[from];
+                            }
                         }
                         BrickSource::Uniform(v) => cells.fill(v),
                     }
@@ -261,6 +295,37 @@ impl Cursor<'_> {
         // The entry may have held the current apron.
         self.apron_brick = [i64::MIN; 3];
         Some(())
+    }
+}
+
+/// The trilinear blend of the eight corner values `c` (x fastest) at fractions `t`. Eight equal
+/// values blend to that value, bit for bit (`a + (a − a)·t`).
+#[inline(always)]
+fn blend(c: [f64; 8], t: [f64; 3]) -> f64 {
+    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+    let y0 = lerp(lerp(c[0], c[1], t[0]), lerp(c[2], c[3], t[0]), t[1]);
+    let y1 = lerp(lerp(c[4], c[5], t[0]), lerp(c[6], c[7], t[0]), t[1]);
+    lerp(y0, y1, t[2])
+}
+
+/// The eight corners of the cells `run` of `cells` into `c[..][run]`, from `values`: a cube of
+/// `E` voxels a side (x fastest) whose first voxel is voxel `origin` of the grid, and which
+/// holds every corner.
+#[inline(always)]
+fn gather<const N: usize, const E: usize>(
+    values: &[i16],
+    origin: [i32; 3],
+    cells: &[[i32; N]; 3],
+    run: Range<usize>,
+    c: &mut [[i32; N]; 8],
+) {
+    for k in run {
+        let l = [0, 1, 2].map(|a| (cells[a][k] - origin[a]) as usize);
+        let at = (l[2] * E + l[1]) * E + l[0];
+        for (j, row) in c.iter_mut().enumerate() {
+            let up = neighbour(j);
+            row[k] = values[at + up[0] + up[1] * E + up[2] * E * E] as i32;
+        }
     }
 }
 

@@ -1,0 +1,200 @@
+//! The per-point work of a contact query: place each point in the voxmap's grid, measure how
+//! deep it is, and add its push to the sums, a batch of points at a time.
+
+use std::ops::Range;
+
+use glam::{DVec3, Vec3};
+
+use super::{Contact, Frame};
+use crate::haptics::cache::Cursor;
+
+/// Points placed and looked up together: a leaf's worth.
+const BATCH: usize = 16;
+
+/// The surface area a pointshell point stands for, in units of the pointshell's voxel face,
+/// from its unit normal `n` in the pointshell's frame: `1 / (|n_x| + |n_y| + |n_z|)`.
+///
+/// The points are one per voxel that the surface touches, and a plane of unit normal `n`
+/// touches the voxels whose centres lie within `(|n_x| + |n_y| + |n_z|) / 2` voxels of it: a
+/// slab holding that many voxels per voxel face of area. So a face at 45° to the lattice has
+/// √2 times the points of an aligned one, and without this weight it pushes √2 times as hard
+/// at the same depth (`docs/HAPTICS.md`). The weight is at most 1 (an aligned face) and at
+/// least 1/√3.
+#[inline(always)]
+pub(crate) fn area_weight(n: Vec3) -> f64 {
+    1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
+}
+
+/// The running sums of [`Frame::test_points`], which live in registers for its loop and are
+/// stored back after it: the same terms in the same order as adding into a [`Contact`].
+struct Sums {
+    force: DVec3,
+    torque: DVec3,
+    touching: u64,
+    deepest: f64,
+}
+
+impl Sums {
+    #[inline(always)]
+    fn of(acc: &Contact) -> Sums {
+        Sums {
+            force: acc.force,
+            torque: acc.torque,
+            touching: 0,
+            deepest: acc.max_penetration,
+        }
+    }
+
+    /// A point at `p` of normal `n` (the pointshell's frame) pushing with `f`, `d` deep.
+    #[inline(always)]
+    fn add(&mut self, p: Vec3, n: DVec3, f: f64, d: f64) {
+        self.force += n * f;
+        self.torque += p.as_dvec3().cross(n) * f;
+        self.deepest = self.deepest.max(d);
+    }
+
+    #[inline(always)]
+    fn store(self, acc: &mut Contact) {
+        acc.force = self.force;
+        acc.torque = self.torque;
+        acc.points_in_contact += self.touching;
+        acc.max_penetration = self.deepest;
+    }
+}
+
+impl Frame<'_> {
+    /// Test points `range`, adding to `acc` in index order.
+    ///
+    /// Force and torque are summed in the pointshell's frame and without the stiffness,
+    /// `Σ f·n` and `Σ f·(p × n)` with `f` the penetration (with interpolated distances, times
+    /// the point's [`area_weight`]); [`Frame::finish`] turns them into world force and torque
+    /// once per query. So no normal is rotated, and the stiffness scales the result exactly.
+    #[inline]
+    pub(super) fn test_points(&self, cur: &mut Cursor<'_>, range: Range<usize>, acc: &mut Contact) {
+        acc.points_tested += range.len() as u64;
+        let points = &self.points[range.clone()];
+        let normals = &self.normals[range];
+        if self.distance {
+            self.test_points_distance(cur, points, normals, acc);
+        } else {
+            self.test_points_layers(cur, points, normals, acc);
+        }
+    }
+
+    /// [`Frame::test_points`] with interpolated distances.
+    #[inline]
+    fn test_points_distance(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
+        let mut sums = Sums::of(acc);
+        distance_batches(self, cur, points, normals, &mut sums);
+        sums.store(acc);
+    }
+
+    /// [`Frame::test_points`] with the paper's layers.
+    #[inline]
+    fn test_points_layers(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
+        let mut sums = Sums::of(acc);
+        for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
+            let mut u = [DVec3::ZERO; BATCH];
+            for (u, p) in u.iter_mut().zip(ps) {
+                *u = self.units(*p);
+            }
+            let mut hit = [(i8::MIN, [0u32; 3]); BATCH];
+            for (hit, u) in hit.iter_mut().zip(&u[..ps.len()]) {
+                if let Some(h) = cur.in_grid(*u) {
+                    *hit = h;
+                }
+            }
+            for (k, (p, n)) in ps.iter().zip(ns).enumerate() {
+                let (value, v) = hit[k];
+                if value < 0 {
+                    continue;
+                }
+                sums.touching += 1;
+                let n = n.as_dvec3();
+                let d = self.penetration(value, v, u[k], self.rot * n);
+                if d > 0.0 {
+                    sums.add(*p, n, d, d);
+                }
+            }
+        }
+        sums.store(acc);
+    }
+}
+
+/// [`Frame::test_points_distance`]'s loop: each batch's points placed, their distances
+/// blended, their pushes computed, each pass over arrays that the compiler vectorizes (and
+/// compiles for wider vectors too, chosen by what the processor has: the same operations in the
+/// same order, so the same bits), then added to `sums` one by one, in index order.
+///
+/// A point in contact adds `f·n` and `f·(p × n)`, with `f` its distance times its
+/// [`area_weight`], as [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
+/// starts at +0 and so is never −0).
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn distance_batches(frame: &Frame<'_>, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], sums: &mut Sums) {
+    let (m, u0) = (frame.rot_units, frame.units0);
+    for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
+        let len = ps.len();
+        let (mut p, mut n) = ([[0.0f32; BATCH]; 3], [[0.0f32; BATCH]; 3]);
+        for k in 0..len {
+            (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
+            (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
+        }
+        // As `Frame::units`: `M p + u0`, column by column.
+        let mut u = [[0.0f64; BATCH]; 3];
+        for (a, u) in u.iter_mut().enumerate() {
+            let (c0, c1, c2) = (m.x_axis[a], m.y_axis[a], m.z_axis[a]);
+            for k in 0..BATCH {
+                u[k] = c0 * p[0][k] as f64 + c1 * p[1][k] as f64 + c2 * p[2][k] as f64 + u0[a];
+            }
+        }
+        // Every point in the grid is blended, also those whose own voxel is ≤ −2, which
+        // `point_depth` skips: the eight voxels around them are < 0 (see `classify`), so are
+        // their distances and the blend, which adds nothing.
+        let mut d = [0.0f64; BATCH];
+        cur.distances_at(&u, len, &mut d);
+        let mut touch = [false; BATCH];
+        for k in 0..BATCH {
+            // As `point_depth` measures it.
+            d[k] *= frame.s;
+            touch[k] = d[k] > 0.0;
+        }
+        if !touch.contains(&true) {
+            // Nothing to add, and no deeper point (all d ≤ 0).
+            continue;
+        }
+        let mut push = [[0.0f64; BATCH]; 6];
+        for k in 0..BATCH {
+            // As `Sums::add` adds it.
+            let (nx, ny, nz) = (n[0][k], n[1][k], n[2][k]);
+            let f = d[k] * area_weight(Vec3::new(nx, ny, nz));
+            let (nx, ny, nz) = (nx as f64, ny as f64, nz as f64);
+            let (px, py, pz) = (p[0][k] as f64, p[1][k] as f64, p[2][k] as f64);
+            let v = [
+                nx * f,
+                ny * f,
+                nz * f,
+                (py * nz - ny * pz) * f,
+                (pz * nx - nz * px) * f,
+                (px * ny - nx * py) * f,
+            ];
+            for (push, v) in push.iter_mut().zip(v) {
+                push[k] = if touch[k] { v } else { 0.0 };
+            }
+        }
+        for k in 0..len {
+            sums.touching += touch[k] as u64;
+            sums.force += DVec3::new(push[0][k], push[1][k], push[2][k]);
+            sums.torque += DVec3::new(push[3][k], push[4][k], push[5][k]);
+        }
+        // The deepest point, by halving: `max` is exact, so the order is free, and one chain
+        // through the running maximum cost more than the sums (d ≤ 0 leaves it as it is).
+        let mut half = BATCH;
+        while half > 1 {
+            half /= 2;
+            for k in 0..half {
+                d[k] = d[k].max(d[k + half]);
+            }
+        }
+        sums.deepest = sums.deepest.max(d[0]);
+    }
+}
