@@ -275,3 +275,36 @@ fn spheres_far_beyond_the_layers_are_culled_by_the_stored_bricks() {
         }
     }
 }
+
+/// A shell far inside a large box, then straddling its top face: the nodes whose voxels are
+/// all far-inside tiles add their points without look-ups, and the sums are the brute force's,
+/// bit for bit. Deep inside, a few nodes stand for all the points: 31 here, against 281 when
+/// walking down to where the layers alone prove them inside (measured with the shortcut off).
+#[test]
+fn far_inside_the_points_are_summed_without_look_ups() {
+    use common::contact::assert_same;
+    use vps::haptics::contact_brute_force;
+    use vps::PointshellData;
+    let p = pair(
+        shapes::cuboid(DVec3::splat(-8.0), DVec3::splat(8.0)),
+        0.1,
+        shapes::sphere(DVec3::ZERO, 2.0, 24, 48),
+        0.08,
+    );
+    let points = p.shell.points().len() as u64;
+    for (t, q) in [
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]),
+        ([0.3, -1.1, 1.5], [0.9, 0.1, -0.3, 0.2]),
+        ([0.0, 0.0, 4.5], [1.0, 0.0, 0.0, 0.0]),
+        ([0.4, 0.2, 7.0], [0.8, -0.2, 0.1, 0.5]),
+    ] {
+        let pose = Pose::new(t, q).unwrap();
+        let walk = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
+        let brute = contact_brute_force(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
+        assert_same(&walk, &brute, &format!("pose {t:?}"));
+        if t[2] < 2.0 {
+            assert_eq!(walk.points_in_contact, points, "pose {t:?}");
+            assert!(walk.nodes_tested < 100, "pose {t:?}: {} nodes", walk.nodes_tested);
+        }
+    }
+}

@@ -502,6 +502,14 @@ impl<'a> Cursor<'a> {
         self.last_at = at;
     }
 
+    /// Whether the brick of the last look-up is a tile, not a stored brick.
+    #[inline(always)]
+    pub(crate) fn in_tile(&self) -> bool {
+        self.table
+            .as_ref()
+            .is_some_and(|t| matches!(t.slots[self.last_at], BrickSlot::Tile(_)))
+    }
+
     /// Whether no brick within `h` voxels of voxel `v` (in the grid) along every axis is
     /// stored; false when that is not known. In a box of unstored bricks every voxel has a
     /// tile's value: around a voxel outside, all are far outside, since an inside tile is never

@@ -60,6 +60,9 @@ pub(super) enum Class {
     Outside,
     /// Every point of it lies in a voxel ≥ 0.
     Inside,
+    /// With interpolated distances: every point's eight voxel centres lie in tiles far inside,
+    /// so every point is the reach deep.
+    Deep,
     /// Either may hold.
     Straddles,
 }
@@ -344,15 +347,30 @@ impl<'a> Frame<'a> {
         let reach = self.reach_voxels();
         if value < 0 && r < (-value - reach) as f64 {
             Ok(Class::Outside)
-        } else if value < 0 && r < MAX_CLEAR_RADIUS && cur.clear_around(v, r as u32 + reach as u32) {
+        } else if value < 0 && r < MAX_CLEAR_RADIUS && cur.in_tile() && cur.clear_around(v, r as u32 + reach as u32) {
             // Beyond the layers: no stored brick within the sphere's reach, so every voxel
-            // there is far outside.
+            // there is far outside. (The centre's own brick is one of them: when it is stored,
+            // the bit sets need not be asked.)
             Ok(Class::Outside)
+        } else if value > self.layers && r < MAX_CLEAR_RADIUS && cur.in_tile() && self.deep_around(cur, v, r) {
+            Ok(Class::Deep)
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)
         } else {
             Ok(Class::Straddles)
         }
+    }
+
+    /// Whether every voxel within `floor(r) + 2` of voxel `v`, a far-inside tile's, is far
+    /// inside, with its distance: with interpolated distances, when no brick there is stored
+    /// and the box lies in the grid. Every voxel of the box then belongs to a tile, and an
+    /// outside tile is never within the layers of an inside one, so walking face by face from
+    /// `v` never changes sign (as for culling beyond the layers, `docs/HAPTICS.md`).
+    #[inline]
+    fn deep_around(&self, cur: &Cursor<'_>, v: [u32; 3], r: f64) -> bool {
+        let h = r as u32 + self.reach_voxels() as u32;
+        let dims = self.dims.to_array();
+        self.distance && (0..3).all(|a| v[a] >= h && f64::from(v[a] + h) < dims[a]) && cur.clear_around(v, h)
     }
 
     /// Depth-first walk below `root` (already found not outside when `root_tested`), left
@@ -378,6 +396,11 @@ impl<'a> Frame<'a> {
                         continue;
                     }
                     Class::Inside => inside = true,
+                    Class::Deep => {
+                        self.test_points(&mut cur, std::mem::replace(&mut pending, 0..0), acc);
+                        self.test_points_deep(node.points(), acc);
+                        continue;
+                    }
                     Class::Straddles => {}
                 }
             }

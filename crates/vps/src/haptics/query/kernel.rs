@@ -7,6 +7,7 @@ use glam::{DVec3, Vec3};
 
 use super::{Contact, Frame};
 use crate::haptics::cache::Cursor;
+use crate::voxmap::{far_distance, DISTANCE_STEP};
 
 /// Points placed and looked up together: a leaf's worth.
 const BATCH: usize = 16;
@@ -81,11 +82,30 @@ impl Frame<'_> {
         }
     }
 
+    /// [`Frame::test_points`] of points that [`Frame::classify`] found [`Class::Deep`](super::Class::Deep): every
+    /// one's eight voxel centres are far inside, so its distance is the reach, and nothing is
+    /// looked up. The same bits as `test_points`: eight equal corners blend to their value.
+    #[inline]
+    pub(super) fn test_points_deep(&self, range: Range<usize>, acc: &mut Contact) {
+        acc.points_tested += range.len() as u64;
+        let deep = far_distance(self.layers as u8, 1) as f64 * DISTANCE_STEP;
+        let mut sums = Sums::of(acc);
+        distance_batches(
+            self,
+            None,
+            &self.points[range.clone()],
+            &self.normals[range],
+            deep,
+            &mut sums,
+        );
+        sums.store(acc);
+    }
+
     /// [`Frame::test_points`] with interpolated distances.
     #[inline]
     fn test_points_distance(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
         let mut sums = Sums::of(acc);
-        distance_batches(self, cur, points, normals, &mut sums);
+        distance_batches(self, Some(cur), points, normals, 0.0, &mut sums);
         sums.store(acc);
     }
 
@@ -122,7 +142,8 @@ impl Frame<'_> {
 }
 
 /// [`Frame::test_points_distance`]'s loop: each batch's points placed, their distances
-/// blended, their pushes computed, each pass over arrays that the compiler vectorizes (and
+/// blended through `cur` (without it, every point's distance is `deep` voxels), their pushes
+/// computed, each pass over arrays that the compiler vectorizes (and
 /// compiles for wider vectors too, chosen by what the processor has: the same operations in the
 /// same order, so the same bits), then added to `sums` one by one, in index order.
 ///
@@ -130,7 +151,14 @@ impl Frame<'_> {
 /// [`area_weight`], as [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
 /// starts at +0 and so is never −0).
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn distance_batches(frame: &Frame<'_>, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], sums: &mut Sums) {
+fn distance_batches(
+    frame: &Frame<'_>,
+    mut cur: Option<&mut Cursor<'_>>,
+    points: &[Vec3],
+    normals: &[Vec3],
+    deep: f64,
+    sums: &mut Sums,
+) {
     let (m, u0) = (frame.rot_units, frame.units0);
     for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
         let len = ps.len();
@@ -139,19 +167,23 @@ fn distance_batches(frame: &Frame<'_>, cur: &mut Cursor<'_>, points: &[Vec3], no
             (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
             (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
         }
-        // As `Frame::units`: `M p + u0`, column by column.
-        let mut u = [[0.0f64; BATCH]; 3];
-        for (a, u) in u.iter_mut().enumerate() {
-            let (c0, c1, c2) = (m.x_axis[a], m.y_axis[a], m.z_axis[a]);
-            for k in 0..BATCH {
-                u[k] = c0 * p[0][k] as f64 + c1 * p[1][k] as f64 + c2 * p[2][k] as f64 + u0[a];
-            }
-        }
-        // Every point in the grid is blended, also those whose own voxel is ≤ −2, which
-        // `point_depth` skips: the eight voxels around them are < 0 (see `classify`), so are
-        // their distances and the blend, which adds nothing.
         let mut d = [0.0f64; BATCH];
-        cur.distances_at(&u, len, &mut d);
+        if let Some(cur) = cur.as_deref_mut() {
+            // As `Frame::units`: `M p + u0`, column by column.
+            let mut u = [[0.0f64; BATCH]; 3];
+            for (a, u) in u.iter_mut().enumerate() {
+                let (c0, c1, c2) = (m.x_axis[a], m.y_axis[a], m.z_axis[a]);
+                for k in 0..BATCH {
+                    u[k] = c0 * p[0][k] as f64 + c1 * p[1][k] as f64 + c2 * p[2][k] as f64 + u0[a];
+                }
+            }
+            // Every point in the grid is blended, also those whose own voxel is ≤ −2, which
+            // `point_depth` skips: the eight voxels around them are < 0 (see `classify`), so
+            // are their distances and the blend, which adds nothing.
+            cur.distances_at(&u, len, &mut d);
+        } else {
+            d[..len].fill(deep);
+        }
         let mut touch = [false; BATCH];
         for k in 0..BATCH {
             // As `point_depth` measures it.
