@@ -76,8 +76,7 @@ impl Cursor<'_> {
         // Cells beyond `i32` lie far beyond the grid: far outside, as they start.
         if let (Ok(x), Ok(y), Ok(z)) = (i32::try_from(b[0]), i32::try_from(b[1]), i32::try_from(b[2])) {
             let cells = [[x], [y], [z]];
-            let m = (1i32 << BRICK_SHIFT) - 1;
-            let crossing = (x & m == m) | (y & m == m) | (z & m == m);
+            let crossing = crosses_brick([x, y, z]);
             self.gather_run(cells.map(|c| c[0] >> BRICK_SHIFT), crossing, &cells, 0..1, &mut c);
         }
         blend(c.map(|c| c[0] as f64), t.to_array()) * DISTANCE_STEP
@@ -115,7 +114,6 @@ impl Cursor<'_> {
         // from the apron.
         let mut keys = [u64::MAX; N];
         let mut crosses = [false; N];
-        let m = (1i32 << BRICK_SHIFT) - 1;
         for k in 0..N {
             let b = [0, 1, 2].map(|a| ((cells[a][k] >> BRICK_SHIFT) + 1) as u64);
             keys[k] = if inside[k] {
@@ -123,7 +121,7 @@ impl Cursor<'_> {
             } else {
                 u64::MAX
             };
-            crosses[k] = (cells[0][k] & m == m) | (cells[1][k] & m == m) | (cells[2][k] & m == m);
+            crosses[k] = crosses_brick([cells[0][k], cells[1][k], cells[2][k]]);
         }
         let mut c = [[0i32; N]; 8];
         let mut k = 0;
@@ -296,6 +294,14 @@ impl Cursor<'_> {
         self.apron_brick = [i64::MIN; 3];
         Some(())
     }
+}
+
+/// Whether the cell whose lower corner is voxel `cell` crosses its brick's upper faces (its
+/// corners then span more than one brick: 1 cell in 8 along each axis).
+#[inline(always)]
+fn crosses_brick(cell: [i32; 3]) -> bool {
+    let m = (1i32 << BRICK_SHIFT) - 1;
+    (cell[0] & m == m) | (cell[1] & m == m) | (cell[2] & m == m)
 }
 
 /// The trilinear blend of the eight corner values `c` (x fastest) at fractions `t`. Eight equal
