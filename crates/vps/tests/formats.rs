@@ -81,6 +81,54 @@ fn stl_binary_and_ascii_load_the_source_triangles() {
     assert_eq!(Mesh::load(&renamed).unwrap().objects[0].name, "my ball");
 }
 
+/// An ASCII STL file of several solids, as CAD exporters write one per part: every solid is
+/// read, each as an object named after its `solid` line (or the file when it has no name),
+/// whatever the line ends, blank lines, indentation and facet normals (`nan` included).
+#[test]
+fn ascii_stl_reads_every_solid() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ball, block) = (sphere(), cuboid());
+    let unnamed = ascii_stl(&block, "")
+        .replacen("solid \n", "solid\n", 1)
+        .replace("facet normal 0 0 0", "facet normal nan nan nan")
+        .replace('\n', "\r\n\t\r\n");
+    let text = ascii_stl(&ball, "ball") + &unnamed + "\n\n";
+    let path = write(dir.path(), "parts.stl", &text);
+    let m = Mesh::load(&path).unwrap();
+    let names: Vec<&str> = m.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["ball", "parts"]);
+    let mut source = Mesh::from_triangles("ball", ball.clone()).unwrap();
+    source.push_object("block", block.clone()).unwrap();
+    assert_eq!(m.triangles, source.triangles);
+    assert_eq!(m.objects[1].triangles, ball.len()..ball.len() + block.len());
+    assert_same_voxmap(&m, &source);
+    // By content too, starting with the unnamed solid.
+    let sniffed = write(dir.path(), "parts.data", unnamed + &ascii_stl(&ball, "ball"));
+    let m = Mesh::load(&sniffed).unwrap();
+    assert_eq!(m.objects.len(), 2);
+    assert_eq!(m.triangles.len(), ball.len() + block.len());
+
+    let two = ascii_stl(&ball, "a") + &ascii_stl(&block, "b");
+    let cut = two.rfind("vertex").unwrap();
+    let msg = load_error(&write(dir.path(), "cut.stl", &two[..cut]));
+    let facet = ball.len() + block.len();
+    assert!(
+        msg.contains(&format!("ASCII STL, facet {facet}, line")) && msg.contains("the file ends"),
+        "{msg}"
+    );
+    let msg = load_error(&write(dir.path(), "trailing.stl", two.clone() + "end\n"));
+    assert!(msg.contains("expected `solid` to begin a solid, got `end`"), "{msg}");
+    let msg = load_error(&write(
+        dir.path(),
+        "word.stl",
+        two.replacen("vertex 0", "vertex zero", 1),
+    ));
+    assert!(msg.contains("a coordinate is not a number"), "{msg}");
+    let long = format!("solid {}\n", "x".repeat(5000));
+    let msg = load_error(&write(dir.path(), "long.stl", long));
+    assert!(msg.contains("ASCII STL, line 1: line longer than 4096 bytes"), "{msg}");
+}
+
 #[test]
 fn ply_ascii_and_binary_load_the_source_triangles() {
     let dir = tempfile::tempdir().unwrap();
@@ -171,7 +219,10 @@ fn gltf_and_glb_apply_node_transforms_to_every_primitive() {
     );
     let (doc, _) = gltf_parts(&ball, &block, &nodes, Some(&uri));
     let embedded = write(dir.path(), "embedded.gltf", serde_json::to_vec(&doc).unwrap());
-    for path in [&gltf, &glb_path, &embedded] {
+    // A URI's percent-escapes name the file as exporters write it.
+    let (doc, _) = gltf_parts(&ball, &block, &nodes, Some("parts%20data.bin"));
+    let escaped = write(dir.path(), "escaped.gltf", serde_json::to_vec(&doc).unwrap());
+    for path in [&gltf, &glb_path, &embedded, &escaped] {
         let m = Mesh::load(path).unwrap();
         let names: Vec<&str> = m.objects.iter().map(|o| o.name.as_str()).collect();
         assert_eq!(
@@ -264,7 +315,10 @@ fn bad_files_are_clear_errors() {
     assert!(msg.contains("non-finite coordinate"), "{msg}");
     let ascii = ascii_stl(&tris, "x").replacen("endloop", "endloop extra", 1);
     let msg = load_error(&write(dir.path(), "bad_ascii.stl", ascii));
-    assert!(msg.contains("ASCII STL, facet 1") && msg.contains("endloop"), "{msg}");
+    assert!(
+        msg.contains("ASCII STL, facet 1, line 7: expected `endloop`, got `endloop extra`"),
+        "{msg}"
+    );
 
     let ply = ply_ascii(&tris).replacen("\n3 0 1 2\n", "\n3 0 1 99999\n", 1);
     let msg = load_error(&write(dir.path(), "range.ply", ply));

@@ -56,8 +56,8 @@ impl Format {
 
     /// The format of a file from its first bytes (up to [`SNIFF_BYTES`]) and its size: the
     /// `glTF` magic is GLB; `ply` and a line end PLY; a size of 84 + 50 × the triangle count
-    /// of bytes 80..84 binary STL (whose 80-byte header may well begin with `solid`); `solid `
-    /// followed by `facet` ASCII STL; a first non-blank `{` glTF JSON; anything else OBJ.
+    /// of bytes 80..84 binary STL (whose 80-byte header may well begin with `solid`); `solid`
+    /// and white space (a name is optional), followed by `facet`, ASCII STL; a first non-blank `{` glTF JSON; anything else OBJ.
     pub fn sniff(head: &[u8], len: u64) -> Format {
         if head.starts_with(b"glTF") {
             return Format::Glb;
@@ -68,7 +68,8 @@ impl Format {
         if stl::binary_size_matches(head, len) {
             return Format::Stl;
         }
-        if head.starts_with(b"solid ") && head.windows(5).any(|w| w == b"facet") {
+        let solid = head.strip_prefix(b"solid").and_then(|rest| rest.first());
+        if solid.is_some_and(u8::is_ascii_whitespace) && head.windows(5).any(|w| w == b"facet") {
             return Format::Stl;
         }
         if head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') {

@@ -179,7 +179,8 @@ fn shown(uri: &str) -> String {
     }
 }
 
-/// The bytes a buffer URI names: base64 `data:` or a relative file.
+/// The bytes a buffer URI names: base64 `data:` or a relative file, percent-escapes decoded
+/// (`part%20one.bin` is the file `part one.bin`, as exporters write it).
 fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (kind, data) = rest.split_once(',').ok_or("a data URI without a comma")?;
@@ -194,7 +195,10 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String> {
         return Err("only data URIs and relative file names can be read".into());
     }
     let base = base.ok_or("an external buffer file cannot be read when the glTF is not read from a file")?;
-    let path = base.join(uri);
+    let name = percent_encoding::percent_decode_str(uri)
+        .decode_utf8()
+        .map_err(|_| "its percent-escapes do not decode to UTF-8")?;
+    let path = base.join(&*name);
     std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
 }
 

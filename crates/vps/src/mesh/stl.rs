@@ -1,15 +1,15 @@
-//! STL files, binary and ASCII, read with the `stl_io` crate.
+//! STL files: binary read with the `stl_io` crate, ASCII with a reader of our own.
 //!
-//! An STL file is one object. Binary STL is an 80-byte header, a little-endian `u32` triangle
+//! A binary STL file is one object; an ASCII one is one object per solid. Binary STL is an 80-byte header, a little-endian `u32` triangle
 //! count and 50 bytes per triangle (normal, three `f32` corners, two attribute bytes); the file
 //! must be exactly that long. A file of that size is binary even when its header begins with
 //! `solid` (as many exporters write); any other file beginning with `solid` and without a NUL
-//! byte in its first 84 is read as ASCII
-//! (`solid name`, `facet normal …`, `outer loop`, three `vertex x y z`, `endloop`, `endfacet`,
-//! …, `endsolid`). The object is named after the ASCII `solid` name, or else the file's stem.
-//! Normals and attribute bytes are ignored; corners are widened from `f32` to `f64`.
+//! byte in its first 84 is read as ASCII: solids one after another, each `solid [name]`, per
+//! facet `facet normal …`, `outer loop`, three `vertex x y z`, `endloop`, `endfacet`, and
+//! `endsolid [name]`. Each solid is named after its `solid` line, or else the file's stem.
+//! Normals and attribute bytes are ignored; corners are `f32`, widened to `f64`.
 
-use std::io::{Read, Seek, SeekFrom};
+use std::io::{BufRead, Read, Seek, SeekFrom};
 
 use glam::DVec3;
 
@@ -70,23 +70,12 @@ pub(crate) fn read<R: Read + Seek>(mut read: R, len: u64, name: &str, input: &In
     // A binary header may begin with `solid` too; its padding or triangle count holds NUL
     // bytes, which ASCII STL never does.
     if head.starts_with(b"solid") && !head.contains(&0) {
-        let solid = solid_name(&mut read).map_err(io)?;
-        let name = if solid.is_empty() { name } else { &solid };
-        read.seek(SeekFrom::Start(0)).map_err(io)?;
-        let reader = stl_io::create_stl_reader(&mut read).map_err(|e| {
-            input.error(format!(
-                "not ASCII STL (and not binary STL, whose size would be 84 + 50 × triangles bytes): {e}"
-            ))
-        })?;
-        let mut triangles = Vec::new();
-        for (i, t) in reader.enumerate() {
-            let t = t.map_err(|e| input.error(format!("ASCII STL, facet {}: {e}", i + 1)))?;
-            triangles.push(corners(&t));
-            if triangles.len() % BUDGET_EVERY == 0 {
-                input.check_budget(&mesh, triangles.len() as u64)?;
-            }
-        }
-        input.push(&mut mesh, name, triangles)?;
+        read_ascii(
+            std::io::BufReader::with_capacity(256 << 10, read),
+            name,
+            input,
+            &mut mesh,
+        )?;
         return Ok(mesh);
     }
     Err(input.error(match binary_count(&head) {
@@ -102,13 +91,161 @@ pub(crate) fn read<R: Read + Seek>(mut read: R, len: u64, name: &str, input: &In
     }))
 }
 
-/// The name on the `solid` line, trimmed (at most the first 4 KiB of the line).
-fn solid_name<R: Read>(read: &mut R) -> std::io::Result<String> {
-    let mut line = Vec::new();
-    read.take(4096).read_to_end(&mut line)?;
-    let end = line.iter().position(|&b| b == b'\n').unwrap_or(line.len());
-    let text = String::from_utf8_lossy(&line[..end]);
-    Ok(text.strip_prefix("solid").unwrap_or("").trim().to_string())
+/// Longest line of an ASCII STL file: a `vertex` line of three `f32` is under 100 bytes, a
+/// `solid` line holds a name.
+const MAX_ASCII_LINE: u64 = 4096;
+
+/// Reads ASCII STL: one or more solids, each `solid [name]`, its facets and `endsolid
+/// [name]`, each solid one object, named after its `solid` line or else `name`.
+///
+/// Written here rather than read with `stl_io`, which stops after the first solid without a
+/// word (CAD exporters write one solid per part) and takes a `solid` line without a name for
+/// the start of a binary file. Facet normals are not read (exporters write `nan` for
+/// degenerate facets, and the normals are not used); vertices are `f32`, as in binary STL.
+fn read_ascii<R: BufRead>(mut read: R, name: &str, input: &Input, mesh: &mut Mesh) -> Result<(), MeshError> {
+    let mut lines = AsciiLines {
+        read: &mut read,
+        line: Vec::new(),
+        number: 0,
+        facet: None,
+        input,
+    };
+    let mut facets = 0usize;
+    while let Some(first) = lines.next_tokens()? {
+        let solid = match first.split_first() {
+            Some((&b"solid", rest)) => String::from_utf8_lossy(&rest.join(&b' ')).into_owned(),
+            _ => {
+                let got = lossy(&first);
+                return Err(lines.error(format!("expected `solid` to begin a solid, got `{got}`")));
+            }
+        };
+        let mut triangles = Vec::new();
+        loop {
+            let Some(tokens) = lines.next_tokens()? else {
+                return Err(lines.error("the file ends inside a solid: expected `facet` or `endsolid`"));
+            };
+            match tokens.first() {
+                Some(&b"endsolid") => break,
+                Some(&b"facet") if tokens.len() == 5 && tokens[1] == b"normal" => {}
+                _ => {
+                    let got = lossy(&tokens);
+                    return Err(lines.error(format!("expected `facet normal nx ny nz` or `endsolid`, got `{got}`")));
+                }
+            }
+            facets += 1;
+            lines.facet = Some(facets);
+            lines.expect(&[b"outer", b"loop"])?;
+            let mut corners = [DVec3::ZERO; 3];
+            for corner in &mut corners {
+                *corner = lines.vertex()?;
+            }
+            lines.expect(&[b"endloop"])?;
+            lines.expect(&[b"endfacet"])?;
+            lines.facet = None;
+            triangles.push(corners);
+            if triangles.len() % BUDGET_EVERY == 0 {
+                input.check_budget(mesh, triangles.len() as u64)?;
+            }
+        }
+        let object = if solid.is_empty() { name } else { &solid };
+        input.push(mesh, object, triangles)?;
+    }
+    if mesh.objects.is_empty() {
+        return Err(input.error("ASCII STL: the file holds no solid"));
+    }
+    Ok(())
+}
+
+/// The lines of an ASCII STL file as whitespace-separated tokens, blank lines skipped.
+struct AsciiLines<'a, R> {
+    read: &'a mut R,
+    line: Vec<u8>,
+    /// Number of the line last read, from 1.
+    number: u64,
+    /// The facet being read, counted from 1 over the whole file.
+    facet: Option<usize>,
+    input: &'a Input<'a>,
+}
+
+impl<R: BufRead> AsciiLines<'_, R> {
+    /// The tokens of the next line that has any, `None` at the end of the file.
+    fn next_tokens(&mut self) -> Result<Option<Vec<&[u8]>>, MeshError> {
+        loop {
+            self.line.clear();
+            let n = (&mut *self.read)
+                .take(MAX_ASCII_LINE)
+                .read_until(b'\n', &mut self.line)
+                .map_err(|e| self.input.error(format!("cannot read: {e}")))?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.number += 1;
+            if n as u64 == MAX_ASCII_LINE && self.line.last() != Some(&b'\n') {
+                return Err(self.error(format!("line longer than {MAX_ASCII_LINE} bytes")));
+            }
+            if self.line.iter().any(|b| !b.is_ascii_whitespace()) {
+                break;
+            }
+        }
+        Ok(Some(
+            self.line
+                .split(u8::is_ascii_whitespace)
+                .filter(|t| !t.is_empty())
+                .collect(),
+        ))
+    }
+
+    /// Reads a line that must be exactly `want`.
+    fn expect(&mut self, want: &[&[u8]]) -> Result<(), MeshError> {
+        match self.next_tokens()? {
+            Some(tokens) if tokens == want => Ok(()),
+            Some(tokens) => {
+                let (want, got) = (lossy(want), lossy(&tokens));
+                Err(self.error(format!("expected `{want}`, got `{got}`")))
+            }
+            None => Err(self.error(format!("the file ends where `{}` was expected", lossy(want)))),
+        }
+    }
+
+    /// Reads a `vertex x y z` line.
+    fn vertex(&mut self) -> Result<DVec3, MeshError> {
+        let Some(tokens) = self.next_tokens()? else {
+            return Err(self.error("the file ends where `vertex x y z` was expected"));
+        };
+        let coordinate = |t: &[u8]| std::str::from_utf8(t).ok().and_then(|t| t.parse::<f32>().ok());
+        match tokens[..] {
+            [b"vertex", x, y, z] => match (coordinate(x), coordinate(y), coordinate(z)) {
+                (Some(x), Some(y), Some(z)) => Ok(DVec3::new(x as f64, y as f64, z as f64)),
+                _ => {
+                    let got = lossy(&tokens);
+                    Err(self.error(format!("`{got}`: a coordinate is not a number")))
+                }
+            },
+            _ => {
+                let got = lossy(&tokens);
+                Err(self.error(format!("expected `vertex x y z`, got `{got}`")))
+            }
+        }
+    }
+
+    /// An error at the line last read.
+    fn error(&self, message: impl std::fmt::Display) -> MeshError {
+        let line = self.number;
+        self.input.error(match self.facet {
+            Some(facet) => format!("ASCII STL, facet {facet}, line {line}: {message}"),
+            None => format!("ASCII STL, line {line}: {message}"),
+        })
+    }
+}
+
+/// Tokens as text, for messages: at most 80 characters, since a line of a file that is not
+/// STL at all may be long.
+fn lossy(tokens: &[&[u8]]) -> String {
+    let text = String::from_utf8_lossy(&tokens.join(&b' ')).into_owned();
+    match text.char_indices().nth(80) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text,
+    }
 }
 
 /// A triangle's corners in `f64`.
