@@ -16,7 +16,8 @@
 //!    A point with no inside voxel in that 5×5×5 neighbourhood is counted as *two-sided*
 //!    (`PointshellStats::two_sided_points`): a sheet with air on both sides.
 //! 3. **Tree.** A sphere tree over the points; points are reordered so that every node's
-//!    points are contiguous.
+//!    points are contiguous. Its spheres need only the points, so they are built while the
+//!    normals of step 2 are made; the normal cones follow.
 //!
 //! One file a step: `project.rs` (1), `normals.rs` and `sums.rs` (2), `orient.rs` (the
 //! two-sided points of 2); the tree is built here from [`crate::pointshell::tree`].
@@ -26,7 +27,7 @@ mod orient;
 mod project;
 mod sums;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::navigate::NavStats;
@@ -35,11 +36,11 @@ use super::GenerateError;
 use crate::grid::{BRICK, BRICK_SHIFT};
 use crate::mesh::Mesh;
 use crate::pointshell::shell::{Pointshell, PointshellStats};
-use crate::pointshell::tree::{reorder, SphereTree};
+use crate::pointshell::tree::{build_spheres, reorder};
 use crate::voxmap::Voxmap;
 use normals::{Neighbours, Window};
 use orient::orient_two_sided;
-use project::project_chunk;
+use project::{project_chunk, ChunkPoints};
 
 /// Below this ratio of |Σ v·o| to Σ |v|·|o| the neighbourhood normal is taken as unstable.
 /// On a flat closed surface the ratio is about 0.5–0.8; on a sheet whose two sides are both
@@ -55,9 +56,10 @@ pub struct PointshellReport {
     pub nav: NavStats,
     /// Time to project the voxel centres (phases 1 and 2).
     pub t_project: std::time::Duration,
-    /// Time to compute the normals.
+    /// Time to compute the normals. They are made while the tree's spheres are built, so this
+    /// and `t_tree` overlap.
     pub t_normals: std::time::Duration,
-    /// Time to build the sphere tree and reorder the points.
+    /// Time to build the sphere tree (its spheres, then its cones) and reorder the points.
     pub t_tree: std::time::Duration,
 }
 
@@ -106,60 +108,68 @@ pub fn pointshell(
     report.t_project = t.elapsed();
     let t = std::time::Instant::now();
     let origin = (lo + hi) * 0.5;
-    let mut points: Vec<Vec3> = bytemuck::zeroed_vec(total);
-    let mut normals: Vec<Vec3> = bytemuck::zeroed_vec(total);
     // Runs of bricks in key order, each filling its own part of the output: the runs keep
     // the key-ordered look-ups of their neighbourhoods cheap (see `Neighbours`).
-    let mut runs = Vec::new();
-    {
-        let (mut p_rest, mut n_rest) = (&mut points[..], &mut normals[..]);
-        let mut first = 0;
-        for run in bricks.chunks(BRICKS_PER_RUN) {
-            let len: usize = run.iter().map(|b| b.len as usize).sum();
-            let (p, pr) = std::mem::take(&mut p_rest).split_at_mut(len);
-            let (n, nr) = std::mem::take(&mut n_rest).split_at_mut(len);
-            (p_rest, n_rest) = (pr, nr);
-            runs.push((run, first, p, n));
-            first += len;
-        }
-    }
-    let per_run: Vec<NormalStats> = runs
-        .into_par_iter()
-        .map(|(run, first, p_out, n_out)| {
-            let mut s = NormalStats::default();
-            let mut neighbours = Neighbours::new(voxmap);
-            let mut window = Window::new(voxmap);
-            let mut at = 0;
-            for b in run {
-                let c = &chunks[b.chunk as usize];
-                let brick = grid.brick_coords(b.key);
-                window.gather(&mut neighbours, brick);
-                let range = b.start as usize..(b.start + b.len) as usize;
-                for ((&local, &triangle), point) in c.local[range.clone()]
-                    .iter()
-                    .zip(&c.triangle[range.clone()])
-                    .zip(&c.point[range])
-                {
-                    let l = [
-                        local as u32 & (BRICK - 1),
-                        (local as u32 >> BRICK_SHIFT) & (BRICK - 1),
-                        local as u32 >> (2 * BRICK_SHIFT),
-                    ];
-                    s.mismatches += (window.get(l, [0, 0, 0]) != 0) as u64;
-                    let (n, fell_back, two_sided) = window.normal(l, &mesh.triangles[triangle as usize]);
-                    s.fallbacks += fell_back as u64;
-                    s.two_sided += two_sided as u64;
-                    if two_sided || fell_back {
-                        s.to_orient.push((first + at, triangle));
-                    }
-                    p_out[at] = (grid.origin + *point * grid.voxel_size - origin).as_vec3();
-                    n_out[at] = n.as_vec3();
-                    at += 1;
-                }
-            }
-            s
+    let runs: Vec<(&[BrickPoints], usize)> = bricks
+        .chunks(BRICKS_PER_RUN)
+        .scan(0, |first, run| {
+            let start = *first;
+            *first += run.iter().map(|b| b.len as usize).sum::<usize>();
+            Some((run, start))
         })
         .collect();
+    let run_points = |run| points_of(&chunks, run);
+    let mut points: Vec<Vec3> = bytemuck::zeroed_vec(total);
+    split_by_runs(&mut points, &runs)
+        .into_par_iter()
+        .for_each(|(run, _, out)| {
+            for (o, (_, _, _, point)) in out.iter_mut().zip(run_points(run)) {
+                *o = (grid.origin + *point * grid.voxel_size - origin).as_vec3();
+            }
+        });
+    // The normals need the voxmap, the spheres of the tree only the points: the two are made
+    // at the same time, so that each fills the other's idle threads (the tree's first
+    // splits, for one, use one thread each).
+    let mut normals: Vec<Vec3> = bytemuck::zeroed_vec(total);
+    let ((per_run, t_normals), (spheres, t_spheres)) = rayon::join(
+        || {
+            let t = std::time::Instant::now();
+            let per_run: Vec<NormalStats> = split_by_runs(&mut normals, &runs)
+                .into_par_iter()
+                .map(|(run, first, n_out)| {
+                    let mut s = NormalStats::default();
+                    let mut neighbours = Neighbours::new(voxmap);
+                    let mut window = Window::new(voxmap);
+                    let mut key = None;
+                    for (at, (brick_key, local, triangle, _)) in run_points(run).enumerate() {
+                        if key != Some(brick_key) {
+                            window.gather(&mut neighbours, grid.brick_coords(brick_key));
+                            key = Some(brick_key);
+                        }
+                        let l = [
+                            local as u32 & (BRICK - 1),
+                            (local as u32 >> BRICK_SHIFT) & (BRICK - 1),
+                            local as u32 >> (2 * BRICK_SHIFT),
+                        ];
+                        s.mismatches += (window.get(l, [0, 0, 0]) != 0) as u64;
+                        let (n, fell_back, two_sided) = window.normal(l, &mesh.triangles[triangle as usize]);
+                        s.fallbacks += fell_back as u64;
+                        s.two_sided += two_sided as u64;
+                        if two_sided || fell_back {
+                            s.to_orient.push((first + at, triangle));
+                        }
+                        n_out[at] = n.as_vec3();
+                    }
+                    s
+                })
+                .collect();
+            (per_run, t.elapsed())
+        },
+        || {
+            let t = std::time::Instant::now();
+            (build_spheres(&points, leaf_size), t.elapsed())
+        },
+    );
     let mut to_orient = Vec::new();
     for s in per_run {
         stats.normal_fallbacks += s.fallbacks;
@@ -169,13 +179,14 @@ pub fn pointshell(
     }
     orient_two_sided(mesh, &grid, origin, &points, &mut normals, to_orient);
     drop(chunks);
+    report.t_normals = t_normals;
 
-    report.t_normals = t.elapsed();
-    let t = std::time::Instant::now();
-    let (tree, order) = SphereTree::build(&points, &normals, leaf_size);
+    let t_cones = std::time::Instant::now();
+    let (tree, order) = spheres.with_cones(&normals);
     let points = reorder(&points, &order);
     let normals = reorder(&normals, &order);
-    report.t_tree = t.elapsed();
+    report.t_tree = t_spheres + t_cones.elapsed();
+    debug_assert!(t.elapsed() >= report.t_tree);
     Ok((
         Pointshell {
             origin,
@@ -187,6 +198,39 @@ pub fn pointshell(
         },
         report,
     ))
+}
+
+/// `values`, one per point, cut into one part per run of `runs` (each `(bricks, first
+/// point)`): `(bricks, first point, part)`.
+fn split_by_runs<'a, 'r, T>(
+    mut values: &'a mut [T],
+    runs: &[(&'r [BrickPoints], usize)],
+) -> Vec<(&'r [BrickPoints], usize, &'a mut [T])> {
+    let mut parts = Vec::with_capacity(runs.len());
+    for (i, &(run, first)) in runs.iter().enumerate() {
+        let end = runs.get(i + 1).map_or(first + values.len(), |&(_, next)| next);
+        let (part, rest) = std::mem::take(&mut values).split_at_mut(end - first);
+        parts.push((run, first, part));
+        values = rest;
+    }
+    parts
+}
+
+/// The points of a run of bricks, in order: (brick key, local index in the brick, triangle,
+/// point in grid units).
+fn points_of<'a>(
+    chunks: &'a [ChunkPoints],
+    run: &'a [BrickPoints],
+) -> impl Iterator<Item = (u64, u16, u32, &'a DVec3)> + 'a {
+    run.iter().flat_map(move |b| {
+        let c = &chunks[b.chunk as usize];
+        let range = b.start as usize..(b.start + b.len) as usize;
+        c.local[range.clone()]
+            .iter()
+            .zip(&c.triangle[range.clone()])
+            .zip(&c.point[range])
+            .map(move |((&local, &triangle), point)| (b.key, local, triangle, point))
+    })
 }
 
 /// Surface bricks per task of the normals pass: enough for the look-ups of consecutive bricks

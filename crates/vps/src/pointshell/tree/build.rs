@@ -49,37 +49,79 @@ pub(super) struct Item {
 /// or a coordinate is not finite.
 pub fn build(points: &[Vec3], normals: &[Vec3], leaf_size: usize) -> (SphereTree, Vec<u32>) {
     assert_eq!(points.len(), normals.len(), "one normal per point");
+    build_spheres(points, leaf_size).with_cones(normals)
+}
+
+/// A tree whose nodes have their spheres but not yet their normal cones: all that the points
+/// alone decide. [`build`] is [`build_spheres`] then [`Spheres::with_cones`]; the pointshell
+/// makes its normals while the spheres are built.
+pub struct Spheres {
+    nodes: Vec<SphereNode>,
+    order: Vec<u32>,
+    leaf_bound: u32,
+}
+
+/// The first part of [`build`]: the nodes and their spheres, from the points alone.
+///
+/// # Panics
+/// If `leaf_size` is 0, there are 2³¹ points or more, or a coordinate is not finite.
+pub fn build_spheres(points: &[Vec3], leaf_size: usize) -> Spheres {
     assert!(leaf_size > 0, "leaf_size must be positive");
     // Node indices are u32 and a tree has fewer than 2n nodes.
     assert!(points.len() < 1 << 31, "too many points for u32 node indices");
-    assert!(
-        points.par_iter().chain(normals).all(|v| v.is_finite()),
-        "points and normals must be finite"
-    );
     // Fewer than 2³¹ points: a larger bound says nothing more.
     let leaf_bound = leaf_size.min(u32::MAX as usize) as u32;
     if points.is_empty() {
-        let tree = SphereTree {
+        return Spheres {
             nodes: Vec::new(),
-            leaf_size: leaf_bound,
+            order: Vec::new(),
+            leaf_bound,
         };
-        return (tree, Vec::new());
     }
     let mut items: Vec<Item> = points
         .par_iter()
         .enumerate()
-        .map(|(i, &p)| Item { p, id: i as u32 })
+        .map(|(i, &p)| {
+            assert!(p.is_finite(), "points and normals must be finite");
+            Item { p, id: i as u32 }
+        })
         .collect();
     let mut nodes = vec![SphereNode::zeroed(); subtree_nodes(items.len(), leaf_size)];
     let (root, rest) = nodes.split_first_mut().expect("at least one node");
     build_node(&mut items, leaf_size, 0, 0, root, rest, 1);
-    let order: Vec<u32> = items.par_iter().map(|it| it.id).collect();
-    set_cones(&mut nodes, normals, &order);
-    let tree = SphereTree {
+    let order = items.par_iter().map(|it| it.id).collect();
+    Spheres {
         nodes,
-        leaf_size: leaf_bound,
-    };
-    (tree, order)
+        order,
+        leaf_bound,
+    }
+}
+
+impl Spheres {
+    /// The second part of [`build`]: the cones from the normals (one per point, in the order
+    /// of the points given to [`build_spheres`]). Returns the tree and the permutation `order`,
+    /// as [`build`] does.
+    ///
+    /// # Panics
+    /// If there are not as many normals as points, or one is not finite.
+    pub fn with_cones(self, normals: &[Vec3]) -> (SphereTree, Vec<u32>) {
+        let Spheres {
+            mut nodes,
+            order,
+            leaf_bound,
+        } = self;
+        assert_eq!(order.len(), normals.len(), "one normal per point");
+        assert!(
+            normals.par_iter().all(|v| v.is_finite()),
+            "points and normals must be finite"
+        );
+        set_cones(&mut nodes, normals, &order);
+        let tree = SphereTree {
+            nodes,
+            leaf_size: leaf_bound,
+        };
+        (tree, order)
+    }
 }
 
 /// Number of leaves of the subtree over `n >= 1` points, following the median split of

@@ -25,7 +25,7 @@ mod fit;
 pub mod reference;
 mod tightness;
 
-pub use build::build;
+pub use build::{build, build_spheres, Spheres};
 pub use tightness::tightness;
 
 /// Default maximum number of points in a leaf.
