@@ -439,6 +439,18 @@ fn bench_slides_on_a_tilted_box() {
 
     let o = vps(&["haptics-bench", "--tilted-box", "--tilts", "0,nan"]);
     assert_clean_failure(&o, "--tilts");
+    // Its scene is fixed: the sweep's options are refused, not ignored, and --tilts is its own.
+    for option in ["--steps", "--depth", "--repeat"] {
+        let o = vps(&["haptics-bench", "--tilted-box", option, "2"]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!("cannot be used with '{option}")),
+            "{}",
+            stderr(&o)
+        );
+    }
+    let o = vps(&["haptics-bench", "--builtin", "--tilts", "5"]);
+    assert_clean_failure(&o, "--tilts is for --tilted-box");
 }
 
 /// `vps voxelize --distance` writes a version 2 file, whose queries use the interpolated

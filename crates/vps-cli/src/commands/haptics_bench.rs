@@ -88,16 +88,17 @@ pub struct HapticsBenchArgs {
     /// Instead of replaying poses, slide a radius-5 sphere's pointshell one voxel deep along
     /// the top face of a box tilted about y by each of --tilts, and report how the force
     /// varies: the yardstick of contact quality. Built in memory; no input file.
-    #[arg(long, conflicts_with_all = ["builtin", "trajectory", "sweep", "plunge", "brute_force", "budget_us"])]
-    pub tilted_box: bool,
-    /// With --tilted-box: the tilts, in degrees, comma-separated.
+    /// Its scene is fixed (`vps::synth::slide`): --steps, --depth and --repeat are refused.
     #[arg(
         long,
-        value_delimiter = ',',
-        default_value = "0,17,30,45",
-        allow_negative_numbers = true
+        conflicts_with_all = [
+            "builtin", "trajectory", "sweep", "plunge", "brute_force", "budget_us", "steps", "depth", "repeat"
+        ]
     )]
-    pub tilts: Vec<f64>,
+    pub tilted_box: bool,
+    /// With --tilted-box: the tilts, in degrees, comma-separated [default: 0,17,30,45].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub tilts: Option<Vec<f64>>,
 }
 
 /// Most queries one bench may run (poses × repeat): each keeps a few numbers for the figures.
@@ -107,6 +108,10 @@ const MAX_QUERIES: usize = 10_000_000;
 pub fn run(a: HapticsBenchArgs) -> Result<()> {
     if a.tilted_box {
         return tilted::run(&a);
+    }
+    // Checked here: clap takes an unset flag for present when it checks `requires`.
+    if a.tilts.is_some() {
+        bail!("--tilts is for --tilted-box");
     }
     let params = contact_params(a.stiffness, a.budget_us, a.penetration)?;
     if a.repeat == 0 {

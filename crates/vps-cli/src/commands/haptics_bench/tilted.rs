@@ -12,15 +12,19 @@ use super::HapticsBenchArgs;
 use crate::args::contact_params;
 use crate::render::{plot_series_png, Series, SERIES_COLOURS};
 
+/// The tilts of issue 12's table, in degrees.
+const DEFAULT_TILTS: [f64; 4] = [0.0, 17.0, 30.0, 45.0];
+
 /// Slide at each of `--tilts` and report.
 pub fn run(a: &HapticsBenchArgs) -> Result<()> {
     let params = contact_params(a.stiffness, None, a.penetration)?;
-    if a.tilts.is_empty() || a.tilts.iter().any(|t| !t.is_finite()) {
+    let tilts = a.tilts.as_deref().unwrap_or(&DEFAULT_TILTS);
+    if tilts.is_empty() || tilts.iter().any(|t| !t.is_finite()) {
         bail!("--tilts must be a comma-separated list of angles in degrees");
     }
     let scene = SlideParams::default();
-    let mut slides = Vec::with_capacity(a.tilts.len());
-    for &tilt in &a.tilts {
+    let mut slides = Vec::with_capacity(tilts.len());
+    for &tilt in tilts {
         let p = SlideParams {
             tilt_degrees: tilt,
             ..scene
