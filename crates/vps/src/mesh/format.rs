@@ -55,9 +55,10 @@ impl Format {
     }
 
     /// The format of a file from its first bytes (up to [`SNIFF_BYTES`]) and its size: the
-    /// `glTF` magic is GLB; `ply` and a line end PLY; a size of 84 + 50 × the triangle count
-    /// of bytes 80..84 binary STL (whose 80-byte header may well begin with `solid`); `solid`
-    /// and white space (a name is optional), followed by `facet`, ASCII STL; a first non-blank `{` glTF JSON; anything else OBJ.
+    /// `glTF` magic is GLB; `ply` and a line end PLY; a size of 84 + 50 × the triangle count of
+    /// bytes 80..84 binary STL (whose 80-byte header may well begin with `solid`); `solid` and
+    /// white space (a name is optional), followed by `facet`, ASCII STL; a first non-blank `{`
+    /// glTF JSON; anything else OBJ.
     pub fn sniff(head: &[u8], len: u64) -> Format {
         if head.starts_with(b"glTF") {
             return Format::Glb;

@@ -5,10 +5,10 @@
 //!
 //! OBJ files are read by our own streaming reader ([`obj`]): line by line, keeping only vertex
 //! positions and triangles, so memory grows with the triangles kept, not with the file's size.
-//! Binary STL ([`stl`]), PLY ([`ply`]) and glTF/GLB ([`gltf`]) are read through the `stl_io`,
-//! `ply-rs-bw` and `gltf` crates, ASCII STL by a reader of our own (every solid, each an
-//! object). [`Mesh::load`] chooses the reader by the file's extension or,
-//! without a known one, by its content ([`format`]).
+//! Binary STL ([`stl`]), PLY ([`ply`]) and glTF/GLB ([`gltf`]) are read through the
+//! `stl_io`, `ply-rs-bw` and `gltf` crates, ASCII STL by a reader of our own (every solid,
+//! each an object). [`Mesh::load`] chooses the reader by the file's extension or, without a
+//! known one, by its content ([`format`]).
 
 use std::io::BufReader;
 use std::ops::Range;

@@ -1,13 +1,14 @@
 //! STL files: binary read with the `stl_io` crate, ASCII with a reader of our own.
 //!
-//! A binary STL file is one object; an ASCII one is one object per solid. Binary STL is an 80-byte header, a little-endian `u32` triangle
-//! count and 50 bytes per triangle (normal, three `f32` corners, two attribute bytes); the file
-//! must be exactly that long. A file of that size is binary even when its header begins with
-//! `solid` (as many exporters write); any other file beginning with `solid` and without a NUL
-//! byte in its first 84 is read as ASCII: solids one after another, each `solid [name]`, per
-//! facet `facet normal …`, `outer loop`, three `vertex x y z`, `endloop`, `endfacet`, and
-//! `endsolid [name]`. Each solid is named after its `solid` line, or else the file's stem.
-//! Normals and attribute bytes are ignored; corners are `f32`, widened to `f64`.
+//! A binary STL file is one object; an ASCII one is one object per solid. Binary STL is an
+//! 80-byte header, a little-endian `u32` triangle count and 50 bytes per triangle (normal,
+//! three `f32` corners, two attribute bytes); the file must be exactly that long. A file of
+//! that size is binary even when its header begins with `solid` (as many exporters write);
+//! any other file beginning with `solid` and without a NUL byte in its first 84 is read as
+//! ASCII: solids one after another, each `solid [name]`, per facet `facet normal …`, `outer
+//! loop`, three `vertex x y z`, `endloop`, `endfacet`, and `endsolid [name]`. Each solid is
+//! named after its `solid` line, or else the file's stem. Normals and attribute bytes are
+//! ignored; corners are `f32`, widened to `f64`.
 
 use std::io::{BufRead, Read, Seek, SeekFrom};
 
@@ -149,9 +150,6 @@ fn read_ascii<R: BufRead>(mut read: R, name: &str, input: &Input, mesh: &mut Mes
         }
         let object = if solid.is_empty() { name } else { &solid };
         input.push(mesh, object, triangles)?;
-    }
-    if mesh.objects.is_empty() {
-        return Err(input.error("ASCII STL: the file holds no solid"));
     }
     Ok(())
 }

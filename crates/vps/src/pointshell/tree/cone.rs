@@ -60,7 +60,7 @@ pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3], order: &[u32
         node.cone_cos = if axis == Vec3::ZERO {
             -1.0
         } else {
-            let c = min_cos([&xs[r.clone()], &ys[r.clone()], &zs[r]], axis) - 2.0 * f32::EPSILON;
+            let c = min_cos([&xs[r.clone()], &ys[r.clone()], &zs[r]], axis) - CONE_MARGIN;
             if c < 0.0 {
                 -1.0
             } else {
@@ -70,10 +70,13 @@ pub(super) fn set_cones(nodes: &mut [SphereNode], normals: &[Vec3], order: &[u32
     });
 }
 
+/// What a cone's smallest cosine is lowered by: two ulps, for the re-checks in `f32`.
+const CONE_MARGIN: f32 = 2.0 * f32::EPSILON;
+
 /// The smallest of the cosines `n · a` of the normals `n` (columns), computed as `Vec3::dot`
 /// does, `(nx ax + ny ay) + nz az`; infinity for no normals. A minimum does not round either.
 ///
-/// Once it falls below `2 ε` the cone is wider than a hemisphere whatever the other normals
+/// Once it falls below [`CONE_MARGIN`] the cone is wider than a hemisphere whatever the other normals
 /// are ([`set_cones`] then stores -1), so the scan stops there, block by block: on a curved
 /// surface the nodes of the upper levels, which hold most of the reads, stop after a block or
 /// two.
@@ -92,7 +95,7 @@ pub(super) fn min_cos(n: [&[f32]; 3], a: Vec3) -> f32 {
             |m, c| if c < m { c } else { m },
         );
         m = if c < m { c } else { m };
-        if m < 2.0 * f32::EPSILON {
+        if m < CONE_MARGIN {
             break;
         }
     }
@@ -133,8 +136,8 @@ mod tests {
             let cols = [&cols[0][..], &cols[1][..], &cols[2][..]];
             let full = normals.iter().map(|v| v.dot(axis)).fold(f32::INFINITY, f32::min);
             let got = min_cos(cols, axis);
-            if full - 2.0 * f32::EPSILON < 0.0 {
-                assert!(got - 2.0 * f32::EPSILON < 0.0, "round {round}: {got} for {full}");
+            if full - CONE_MARGIN < 0.0 {
+                assert!(got - CONE_MARGIN < 0.0, "round {round}: {got} for {full}");
             } else {
                 assert_eq!(got, full, "round {round}");
             }
