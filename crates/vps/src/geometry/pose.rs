@@ -33,6 +33,10 @@ pub enum PoseError {
         /// Quaternion as given, w first.
         rotation: [f64; 4],
     },
+    /// A translation component is beyond [`crate::mesh::MAX_COORDINATE`] in absolute value:
+    /// moving a point by it may overflow.
+    #[error("pose translation {0:?} is too large: each component at most {max:e} in absolute value", max = crate::mesh::MAX_COORDINATE)]
+    TranslationTooLarge([f64; 3]),
     /// The quaternion is zero, so it gives no rotation.
     #[error("pose quaternion [w x y z] {0:?} is zero: it must be a rotation (any non-zero multiple of a unit quaternion; it is normalised)")]
     ZeroQuaternion([f64; 4]),
@@ -65,7 +69,9 @@ impl Pose {
     };
 
     /// A pose from a translation and a quaternion given w first, as in the text form. The
-    /// quaternion is normalised; it must be finite and not zero. It is scaled by its largest
+    /// translation must be within [`crate::mesh::MAX_COORDINATE`], as mesh coordinates are, so
+    /// that posed points stay finite. The quaternion is normalised; it must be finite and not
+    /// zero. It is scaled by its largest
     /// component first, so that its length neither overflows (`1e200 0 0 0`) nor underflows
     /// (`1e-300 0 0 0`): both are the identity.
     pub fn new(translation: [f64; 3], wxyz: [f64; 4]) -> Result<Pose, PoseError> {
@@ -74,6 +80,9 @@ impl Pose {
                 translation,
                 rotation: wxyz,
             });
+        }
+        if translation.iter().any(|c| c.abs() > crate::mesh::MAX_COORDINATE) {
+            return Err(PoseError::TranslationTooLarge(translation));
         }
         let big = wxyz.iter().fold(0.0f64, |m, c| m.max(c.abs()));
         if big == 0.0 {
@@ -247,5 +256,13 @@ mod tests {
             Pose::parse("inf 2 3 1 0 0 0"),
             Err(PoseError::NotFinite { .. })
         ));
+        // Found by the fuzzer: a finite translation so large that moving a point by it
+        // overflowed to infinity.
+        assert!(matches!(
+            Pose::parse("-0e3 1e308 7 6 0 03 0"),
+            Err(PoseError::TranslationTooLarge(..))
+        ));
+        let at_bound = Pose::parse("1e150 -1e150 0 6 0 3 0").unwrap();
+        assert!(at_bound.transform_point(at_bound.translation).is_finite());
     }
 }
