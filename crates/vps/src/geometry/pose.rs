@@ -33,9 +33,9 @@ pub enum PoseError {
         /// Quaternion as given, w first.
         rotation: [f64; 4],
     },
-    /// A translation component is beyond [`crate::mesh::MAX_COORDINATE`] in absolute value:
-    /// moving a point by it may overflow.
-    #[error("pose translation {0:?} is too large: each component at most {max:e} in absolute value", max = crate::mesh::MAX_COORDINATE)]
+    /// A translation component is beyond [`MAX_TRANSLATION`] in absolute value: moving a
+    /// point by it may overflow.
+    #[error("pose translation {0:?} is too large: each component at most {MAX_TRANSLATION:e} in absolute value")]
     TranslationTooLarge([f64; 3]),
     /// The quaternion is zero, so it gives no rotation.
     #[error("pose quaternion [w x y z] {0:?} is zero: it must be a rotation (any non-zero multiple of a unit quaternion; it is normalised)")]
@@ -53,6 +53,11 @@ pub struct Pose {
     pub rotation: DQuat,
 }
 
+/// Largest translation component a pose may have: a point as large, turned and moved by it,
+/// stays far below `f64::MAX` (about 3.5 times it at most). A pose far out of reach (1e300)
+/// is still a pose, whose query finds no contact.
+pub const MAX_TRANSLATION: f64 = 1e300;
+
 const NAMES: [&str; 7] = ["tx", "ty", "tz", "qw", "qx", "qy", "qz"];
 
 impl Default for Pose {
@@ -69,8 +74,7 @@ impl Pose {
     };
 
     /// A pose from a translation and a quaternion given w first, as in the text form. The
-    /// translation must be within [`crate::mesh::MAX_COORDINATE`], as mesh coordinates are, so
-    /// that posed points stay finite. The quaternion is normalised; it must be finite and not
+    /// translation must be within [`MAX_TRANSLATION`], so that posed points stay finite. The quaternion is normalised; it must be finite and not
     /// zero. It is scaled by its largest
     /// component first, so that its length neither overflows (`1e200 0 0 0`) nor underflows
     /// (`1e-300 0 0 0`): both are the identity.
@@ -81,7 +85,7 @@ impl Pose {
                 rotation: wxyz,
             });
         }
-        if translation.iter().any(|c| c.abs() > crate::mesh::MAX_COORDINATE) {
+        if translation.iter().any(|c| c.abs() > MAX_TRANSLATION) {
             return Err(PoseError::TranslationTooLarge(translation));
         }
         let big = wxyz.iter().fold(0.0f64, |m, c| m.max(c.abs()));
@@ -262,7 +266,7 @@ mod tests {
             Pose::parse("-0e3 1e308 7 6 0 03 0"),
             Err(PoseError::TranslationTooLarge(..))
         ));
-        let at_bound = Pose::parse("1e150 -1e150 0 6 0 3 0").unwrap();
+        let at_bound = Pose::parse("1e300 -1e300 1e300 6 0 3 0").unwrap();
         assert!(at_bound.transform_point(at_bound.translation).is_finite());
     }
 }
