@@ -1,16 +1,18 @@
 //! Arbitrary bytes as a `.vps` pointshell file: opening must return an error or a file whose
-//! tree, points and normals can all be walked by plain indexing, whose header values are within
-//! the format's limits, and which `verify` checks without a panic.
+//! tree, points, normals and weights can all be walked by plain indexing, whose header values
+//! are within the format's limits, whose weights lie in [0, 1], and which `verify` checks
+//! without a panic.
 //!
 //! The first input byte is a mode: if its low bit is set, the section CRCs and the header CRC
 //! are recomputed before opening, so the fuzzer reaches the layout and tree checks behind
-//! them (random mutations almost never keep a CRC-32 valid). Both header layouts the reader
-//! accepts are fixed up, version 1's and version 2's, by the version the input says.
+//! them (random mutations almost never keep a CRC-32 valid). Every header layout the reader
+//! accepts is fixed up, version 1's, 2's and 3's, by the version the input says.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use vps::storage::pointshell::{
-    PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1, PS_VERSION_1,
+    PointshellFile, RawPsHeader, RawPsHeaderV1, RawPsHeaderV2, PS_HEADER_BYTES, PS_HEADER_BYTES_V1, PS_HEADER_BYTES_V2,
+    PS_VERSION_1, PS_VERSION_2,
 };
 
 fuzz_target!(|input: &[u8]| {
@@ -34,14 +36,16 @@ fn walk(file: &PointshellFile) {
     if h.version == PS_VERSION_1 {
         assert_eq!(h.stats.two_sided_points, 0, "version 1 counts no two-sided points");
     }
-    let (points, normals, nodes) = (file.points(), file.normals(), file.nodes());
+    let (points, normals, weights, nodes) = (file.points(), file.normals(), file.weights(), file.nodes());
     assert_eq!(points.len() as u64, h.points);
     assert_eq!(normals.len(), points.len());
+    assert_eq!(weights.len(), points.len());
     assert_eq!(nodes.len() as u64, h.nodes);
 
     let mut sum = 0.0f32;
-    for (p, n) in points.iter().zip(normals) {
-        sum += p.x + n.y;
+    for ((p, n), w) in points.iter().zip(normals).zip(weights) {
+        assert!((0.0..=1.0).contains(w) || h.version < 3, "weight {w} opened");
+        sum += p.x + n.y + w;
     }
     for node in nodes {
         for &i in &[node.point_start as usize, node.points().end - 1] {
@@ -79,7 +83,13 @@ fn walk(file: &PointshellFile) {
     // The header semantics open checks, as `vps info` prints them.
     assert!(h.origin.is_finite() && h.voxel_size.is_finite() && h.voxel_size > 0.0);
     let s = h.stats;
-    for count in [s.interior_points, s.boundary_points_recovered, s.normal_fallbacks, s.voxmap_mismatches, s.two_sided_points] {
+    for count in [
+        s.interior_points,
+        s.boundary_points_recovered,
+        s.normal_fallbacks,
+        s.voxmap_mismatches,
+        s.two_sided_points,
+    ] {
         assert!(count <= h.points);
     }
     assert!(h.tree_depth as u64 <= h.nodes.saturating_sub(1) / 2);
@@ -94,23 +104,30 @@ fn walk(file: &PointshellFile) {
 }
 
 /// Recompute, wherever the header's offsets and counts allow, the CRC of each section and of
-/// the header, in the layout of the version the input says (1, or else 2).
+/// the header, in the layout of the version the input says (1, 2, or else 3).
 fn fix_checksums(data: &mut [u8]) {
-    let version = data.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
-    if version == Some(PS_VERSION_1) {
-        let Some(mut h) = data
-            .get(..PS_HEADER_BYTES_V1)
-            .and_then(|b| bytemuck::try_pod_read_unaligned::<RawPsHeaderV1>(b).ok())
-        else {
+    // Versions 1 and 2 differ in their header's type and length only.
+    macro_rules! fix_old_header {
+        ($header:ty, $bytes:expr) => {{
+            let Some(mut h) = data
+                .get(..$bytes)
+                .and_then(|b| bytemuck::try_pod_read_unaligned::<$header>(b).ok())
+            else {
+                return;
+            };
+            let counts = (h.points, h.nodes);
+            let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
+            let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
+            (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+            h.header_crc = h.compute_crc();
+            data[..$bytes].copy_from_slice(bytemuck::bytes_of(&h));
             return;
-        };
-        let counts = (h.points, h.nodes);
-        let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
-        let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
-        (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
-        h.header_crc = h.compute_crc();
-        data[..PS_HEADER_BYTES_V1].copy_from_slice(bytemuck::bytes_of(&h));
-        return;
+        }};
+    }
+    match data.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]])) {
+        Some(PS_VERSION_1) => fix_old_header!(RawPsHeaderV1, PS_HEADER_BYTES_V1),
+        Some(PS_VERSION_2) => fix_old_header!(RawPsHeaderV2, PS_HEADER_BYTES_V2),
+        _ => {}
     }
     let Some(mut h) = data
         .get(..PS_HEADER_BYTES)
@@ -122,13 +139,25 @@ fn fix_checksums(data: &mut [u8]) {
     let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
     let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
     (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+    let weights = h.points.checked_mul(4).and_then(|len| {
+        let end = h.weights_offset.checked_add(len)?;
+        data.get(usize::try_from(h.weights_offset).ok()?..usize::try_from(end).ok()?)
+    });
+    if let Some(bytes) = weights {
+        h.weights_crc = crc32fast::hash(bytes);
+    }
     h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
     data[..PS_HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
 }
 
 /// The CRCs of the points, normals and nodes where the counts and offsets lie within `data`,
 /// the old ones elsewhere.
-fn section_crcs(data: &[u8], (points, nodes): (u64, u64), offsets: (u64, u64, u64), old: (u32, u32, u32)) -> (u32, u32, u32) {
+fn section_crcs(
+    data: &[u8],
+    (points, nodes): (u64, u64),
+    offsets: (u64, u64, u64),
+    old: (u32, u32, u32),
+) -> (u32, u32, u32) {
     let section = |start: u64, len: Option<u64>| -> Option<u32> {
         let end = start.checked_add(len?)?;
         let range = usize::try_from(start).ok()?..usize::try_from(end).ok()?;

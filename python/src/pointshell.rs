@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use glam::DVec3;
-use numpy::PyArray2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -63,6 +63,17 @@ impl PyPointshell {
     fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         let (_, _, normals) = self.parts();
         vec3_array(py, normals.iter().map(|n| n.as_dvec3()))
+    }
+
+    /// The area each point stands for `(N,)` `float64`, in voxel faces, in `[0, 1]`: the
+    /// weight of its push in a contact query.
+    #[getter]
+    fn weights<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let weights = match &self.data {
+            ShellData::Memory(m) => &m.weights[..],
+            ShellData::File(f) => f.weights(),
+        };
+        weights.iter().map(|&w| w as f64).collect::<Vec<f64>>().into_pyarray(py)
     }
 
     /// Voxel size the points were sampled at.

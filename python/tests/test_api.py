@@ -121,6 +121,9 @@ def test_pointshell_matches_the_command_line(ball, tmp_path, run_vps):
     opened = vps.Pointshell.open(cli_file)
     np.testing.assert_array_equal(opened.points, shell.points)
     np.testing.assert_array_equal(opened.normals, shell.normals)
+    assert shell.weights.shape == (n,)
+    assert np.all((shell.weights >= 1 / np.sqrt(3) - 1e-6) & (shell.weights <= 1))
+    np.testing.assert_array_equal(opened.weights, shell.weights)
 
 
 def test_contact_of_a_ball_pressed_into_a_box_pushes_it_out(tmp_path, run_vps):

@@ -92,6 +92,9 @@ class Pointshell:
     def normals(self) -> npt.NDArray[np.float64]:
         """(N, 3) unit normals pointing into the object."""
     @property
+    def weights(self) -> npt.NDArray[np.float64]:
+        """(N,) area each point stands for, in voxel faces, in [0, 1]: the weight of its push."""
+    @property
     def voxel_size(self) -> float: ...
     @property
     def path(self) -> Optional[str]: ...

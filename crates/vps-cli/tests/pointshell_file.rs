@@ -112,7 +112,7 @@ fn cli_pointshell_info_and_export() {
     ] {
         assert_eq!(info[key], made[key], "info and pointshell disagree on {key}");
     }
-    assert_eq!(info["format_version"].as_u64(), Some(2));
+    assert_eq!(info["format_version"].as_u64(), Some(3));
     assert_eq!(info["leaf_size"].as_u64(), Some(LEAF_SIZE as u64));
     assert_eq!(info["two_sided_points"], made["two_sided_points"]);
     assert_eq!(
@@ -123,10 +123,12 @@ fn cli_pointshell_info_and_export() {
     let text = vps(&["info", p(&vps_path)]);
     let text_out = String::from_utf8_lossy(&text.stdout);
     assert!(
-        text.status.success() && text_out.contains("pointshell format 2"),
+        text.status.success() && text_out.contains("pointshell format 3"),
         "{text_out}"
     );
     assert!(text_out.contains("two-sided        0"), "{text_out}");
+    assert!(text_out.contains("weights          stored"), "{text_out}");
+    assert_eq!(info["weights_stored"], true);
 
     // A version-1 file: info reads it, with no two-sided count.
     let old = d.join("old.vps");
@@ -142,6 +144,11 @@ fn cli_pointshell_info_and_export() {
         "{text_out}"
     );
     assert!(text_out.contains("not counted"), "{text_out}");
+    assert!(
+        text_out.contains("weights          from the normals (format 1)"),
+        "{text_out}"
+    );
+    assert_eq!(info["weights_stored"], false);
 
     let ply = d.join("ball.ply");
     let o = vps(&["export", p(&vps_path), "--ply", p(&ply)]);

@@ -180,8 +180,8 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
 }
 
 /// Each point in contact pushes with `K · d · w · ñ`, its interpolated penetration `d` times
-/// the area it stands for, `w = 1 / (|n_x| + |n_y| + |n_z|)` of its own normal: the sum over
-/// hand-placed points with random normals, point by point.
+/// the area it stands for, its weight `w`: the sum over hand-placed points with random normals
+/// and random weights, point by point.
 #[test]
 fn each_point_is_weighted_by_the_area_it_stands_for() {
     use glam::Vec3;
@@ -193,7 +193,7 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
         0.2,
     );
     let mut rng = vps::shapes::SplitMix(11);
-    let (mut points, mut normals) = (Vec::new(), Vec::new());
+    let (mut points, mut normals, mut weights) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..300 {
         points.push(Vec3::new(
             rng.range(-5.0, 5.0) as f32,
@@ -202,6 +202,7 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
         ));
         let n = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
         normals.push(n.normalize().as_vec3());
+        weights.push(rng.range(0.0, 1.0) as f32);
     }
     let (tree, order) = SphereTree::build(&points, &normals, 8);
     let shell = vps::Pointshell {
@@ -209,6 +210,7 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
         voxel_size: 0.2,
         points: reorder(&points, &order),
         normals: reorder(&normals, &order),
+        weights: reorder(&weights, &order),
         tree,
         stats: Default::default(),
     };
@@ -227,14 +229,12 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
     let grid = *p.voxmap.grid();
     let mut cur = p.voxmap.cursor();
     let (mut force, mut touching) = (DVec3::ZERO, 0);
-    for (q, n) in shell.points.iter().zip(&shell.normals) {
+    for ((q, n), &w) in shell.points.iter().zip(&shell.normals).zip(&shell.weights) {
         let u = (q.as_dvec3() - grid.origin) / grid.voxel_size;
         let d = grid.voxel_size * cur.distance_at(u);
         if d > 0.0 {
             touching += 1;
-            let n = n.as_dvec3();
-            let w = 1.0 / (n.x.abs() + n.y.abs() + n.z.abs());
-            force += 3.0 * d * w * n;
+            force += 3.0 * d * w as f64 * n.as_dvec3();
         }
     }
     assert!(touching > 50 && touching < 300, "{touching} points in contact");

@@ -78,7 +78,8 @@ fn sphere_points_are_on_the_mesh_with_inward_normals() {
     let mesh = Mesh::from_triangles("s", shapes::sphere(c, r, 24, 48)).unwrap();
     let (vm, ps) = make(&mesh, 0.5);
     check_points(&mesh, &vm, &ps);
-    // Normals point to the centre within a few degrees.
+    // Normals point to the centre within a few degrees: they are the triangles' (24 × 48
+    // facets, each about 7.5° across), so within the facets' own tilt from the radius.
     let mut worst = 0.0f64;
     let mut sum = 0.0;
     for i in 0..ps.len() {
@@ -98,7 +99,7 @@ fn sphere_points_are_on_the_mesh_with_inward_normals() {
         ps.len()
     );
     assert!(mean < 4.0, "mean angle {mean}");
-    assert!(worst < 15.0, "worst angle {worst}");
+    assert!(worst < 7.0, "worst angle {worst}");
     assert_eq!(ps.stats.normal_fallbacks, 0);
     assert!(ps.stats.boundary_points_recovered > 0 && ps.stats.boundary_points_recovered < ps.len() as u64 / 4);
     assert_eq!(

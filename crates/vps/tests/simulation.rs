@@ -177,11 +177,10 @@ fn random_device_motions_in_contact_never_add_energy() {
     let contact_energy = |pose: &Pose| {
         let mut cur = plane.cursor();
         let mut u_c = 0.0;
-        for (p, n) in posed(&ball, pose).zip(&ball.normals) {
+        for (p, &w) in posed(&ball, pose).zip(&ball.weights) {
             let d = s * cur.distance_at((p - grid.origin) / s);
             if d > 0.0 {
-                let n = n.as_dvec3();
-                u_c += 0.5 * params.contact.stiffness * d * d / (n.x.abs() + n.y.abs() + n.z.abs());
+                u_c += 0.5 * params.contact.stiffness * d * d * w as f64;
             }
         }
         u_c

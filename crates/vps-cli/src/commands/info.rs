@@ -103,6 +103,7 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
                 "normal_fallbacks": s.normal_fallbacks,
                 "voxmap_mismatches": s.voxmap_mismatches,
                 "two_sided_points": s.two_sided_points,
+                "weights_stored": h.version >= vps::storage::pointshell::PS_VERSION,
                 "file_bytes": h.file_bytes,
             })
         );
@@ -122,6 +123,11 @@ fn pointshell_info(path: &Path, json: bool) -> Result<()> {
                 "  two-sided        {} (no inside voxel next to them)",
                 s.two_sided_points
             );
+        }
+        if h.version < vps::storage::pointshell::PS_VERSION {
+            outln!("  weights          from the normals (format {})", h.version);
+        } else {
+            outln!("  weights          stored");
         }
         outln!(
             "  tree             {} nodes, depth {}, leaves of at most {} points",

@@ -157,6 +157,7 @@ pub(super) struct Frame<'a> {
     pub(super) nodes: &'a [SphereNode],
     pub(super) points: &'a [Vec3],
     pub(super) normals: &'a [Vec3],
+    pub(super) weights: &'a [f32],
     rot: DMat3,
     /// `R · origin` of the pointshell: lever arms are `R · p + lever0`.
     lever0: DVec3,
@@ -190,6 +191,15 @@ impl<'a> Frame<'a> {
                 params.stiffness
             )));
         }
+        let (points, normals, weights) = (shell.points(), shell.normals(), shell.weights());
+        if normals.len() != points.len() || weights.len() != points.len() {
+            return Err(HapticsError::Params(format!(
+                "the pointshell has {} points, {} normals and {} weights: one of each per point",
+                points.len(),
+                normals.len(),
+                weights.len()
+            )));
+        }
         let pose = pose.checked()?;
         let grid = voxmap.grid();
         let rot = pose.matrix();
@@ -197,8 +207,9 @@ impl<'a> Frame<'a> {
         Ok(Frame {
             voxmap,
             nodes: shell.nodes(),
-            points: shell.points(),
-            normals: shell.normals(),
+            points,
+            normals,
+            weights,
             rot,
             lever0: rot * shell.origin(),
             origin: shell.origin(),

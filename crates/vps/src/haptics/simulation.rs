@@ -35,7 +35,6 @@ use std::time::{Duration, Instant};
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::query::area_weight;
 use super::{contact, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
 use crate::geometry::Pose;
 use crate::pointshell::PointshellData;
@@ -60,7 +59,7 @@ impl MassProperties {
     pub fn of_shell<S: PointshellData + ?Sized>(shell: &S, mass: f64) -> MassProperties {
         assert!(mass.is_finite() && mass > 0.0, "mass must be finite and positive");
         assert!(!shell.points().is_empty(), "a pointshell without points has no mass");
-        let weights: Vec<f64> = shell.normals().iter().map(|&n| area_weight(n)).collect();
+        let weights: Vec<f64> = shell.weights().iter().map(|&w| w as f64).collect();
         let total: f64 = weights.iter().sum();
         let at = |p: &glam::Vec3| shell.origin() + p.as_dvec3();
         let centre = shell

@@ -2,7 +2,7 @@
 pub mod shell;
 pub mod tree;
 
-pub use shell::{Pointshell, PointshellStats};
+pub use shell::{area_weight, area_weights, Pointshell, PointshellStats};
 pub use tree::{SphereNode, SphereTree};
 
 use glam::{DVec3, Vec3};
@@ -16,6 +16,8 @@ pub trait PointshellData: Sync {
     fn points(&self) -> &[Vec3];
     /// Unit normals pointing into the object, one per point.
     fn normals(&self) -> &[Vec3];
+    /// The area each point stands for, in `[0, 1]`, one per point (see [`Pointshell::weights`]).
+    fn weights(&self) -> &[f32];
     /// The sphere tree's nodes, root first.
     fn nodes(&self) -> &[SphereNode];
 }
@@ -29,6 +31,9 @@ impl PointshellData for Pointshell {
     }
     fn normals(&self) -> &[Vec3] {
         &self.normals
+    }
+    fn weights(&self) -> &[f32] {
+        &self.weights
     }
     fn nodes(&self) -> &[SphereNode] {
         &self.tree.nodes

@@ -38,10 +38,33 @@ pub struct Pointshell {
     pub points: Vec<Vec3>,
     /// Unit normals pointing into the object, one per point.
     pub normals: Vec<Vec3>,
+    /// The surface area each point stands for, in voxel faces of the pointshell, one per point,
+    /// in `[0, 1]`: the weight of its push (`docs/HAPTICS.md`). [`area_weights`] gives them for
+    /// points sampled one per surface voxel with these normals.
+    pub weights: Vec<f32>,
     /// The sphere tree over the points.
     pub tree: SphereTree,
     /// How the points were obtained.
     pub stats: PointshellStats,
+}
+
+/// The surface area a point stands for, in units of the pointshell's voxel face, for a point
+/// sampled one per surface voxel where the surface has unit normal `n`: `1 / (|n_x| + |n_y| +
+/// |n_z|)`.
+///
+/// A plane of unit normal `n` touches the voxels whose centres lie within `(|n_x| + |n_y| +
+/// |n_z|) / 2` voxels of it: a slab holding that many voxels per voxel face of area. So a face
+/// at 45° to the lattice has √2 times the points of an aligned one, and without this weight it
+/// would push √2 times as hard at the same depth (`docs/HAPTICS.md`). It is at most 1 (an
+/// aligned face) and at least 1/√3.
+pub fn area_weight(n: Vec3) -> f32 {
+    (1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)) as f32
+}
+
+/// [`area_weight`] of each normal: the weights of a pointshell that stores none (a `.vps` of
+/// version 1 or 2) or whose normals are the ones its weights should follow.
+pub fn area_weights(normals: &[Vec3]) -> Vec<f32> {
+    normals.iter().map(|&n| area_weight(n)).collect()
 }
 
 impl Pointshell {

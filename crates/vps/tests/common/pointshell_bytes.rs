@@ -5,7 +5,8 @@
 use glam::DVec3;
 use vps::shapes;
 use vps::storage::pointshell::{
-    write_pointshell, PointshellFile, RawPsHeader, RawPsHeaderV1, PS_HEADER_BYTES, PS_HEADER_BYTES_V1, PS_VERSION_1,
+    write_pointshell, PointshellFile, RawPsHeader, RawPsHeaderV1, RawPsHeaderV2, PS_HEADER_BYTES, PS_HEADER_BYTES_V1,
+    PS_HEADER_BYTES_V2, PS_VERSION_1, PS_VERSION_2,
 };
 use vps::storage::StorageError;
 use vps::{pointshell, voxelize, Mesh, Pointshell, VoxelizeParams, LEAF_SIZE};
@@ -42,7 +43,7 @@ pub fn put_header(bytes: &mut [u8], h: &RawPsHeader) {
     bytes[..PS_HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(h));
 }
 
-/// Recompute the three section CRCs and the header CRC, as a careful forger would.
+/// Recompute the four section CRCs and the header CRC, as a careful forger would.
 pub fn fix_checksums(bytes: &mut [u8]) {
     let mut h = header_of(bytes);
     let crc = |start: u64, len: Option<u64>, old: u32| {
@@ -52,6 +53,7 @@ pub fn fix_checksums(bytes: &mut [u8]) {
     let np = h.points.checked_mul(12);
     h.points_crc = crc(h.points_offset, np, h.points_crc);
     h.normals_crc = crc(h.normals_offset, np, h.normals_crc);
+    h.weights_crc = crc(h.weights_offset, h.points.checked_mul(4), h.weights_crc);
     h.nodes_crc = crc(h.nodes_offset, h.nodes.checked_mul(48), h.nodes_crc);
     h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
     put_header(bytes, &h);
@@ -65,11 +67,58 @@ pub fn corrupt_what(r: Result<PointshellFile, StorageError>) -> String {
     }
 }
 
-/// The same pointshell in the version-1 layout, as a version-1 writer made it: the 152-byte
-/// header without `two_sided_points`, 8 zero bytes, then the sections, which start at 160 in
-/// both versions.
-pub fn to_version_1(v2: &[u8]) -> Vec<u8> {
-    let h = header_of(v2);
+/// The same pointshell in the version-2 layout, as a version-2 writer made it from the same
+/// points, normals and tree: the 160-byte header without the weights' fields, and no weights
+/// section.
+pub fn to_version_2(v3: &[u8]) -> Vec<u8> {
+    let h = header_of(v3);
+    let section = |offset: u64, len: u64| &v3[offset as usize..(offset + len) as usize];
+    let points = section(h.points_offset, 12 * h.points);
+    let normals = section(h.normals_offset, 12 * h.points);
+    let nodes = section(h.nodes_offset, 48 * h.nodes);
+    let up = |x: usize| x.div_ceil(16) * 16;
+    let p = up(PS_HEADER_BYTES_V2);
+    let n = up(p + points.len());
+    let t = up(n + normals.len());
+    let mut v2 = RawPsHeaderV2 {
+        magic: h.magic,
+        version: PS_VERSION_2,
+        header_bytes: PS_HEADER_BYTES_V2 as u32,
+        origin: h.origin,
+        voxel_size: h.voxel_size,
+        points: h.points,
+        nodes: h.nodes,
+        tree_depth: h.tree_depth,
+        leaf_size: h.leaf_size,
+        interior_points: h.interior_points,
+        boundary_points_recovered: h.boundary_points_recovered,
+        normal_fallbacks: h.normal_fallbacks,
+        voxmap_mismatches: h.voxmap_mismatches,
+        two_sided_points: h.two_sided_points,
+        points_offset: p as u64,
+        normals_offset: n as u64,
+        nodes_offset: t as u64,
+        file_bytes: (t + nodes.len()) as u64,
+        points_crc: h.points_crc,
+        normals_crc: h.normals_crc,
+        nodes_crc: h.nodes_crc,
+        header_crc: 0,
+    };
+    v2.header_crc = v2.compute_crc();
+    let mut out = bytemuck::bytes_of(&v2).to_vec();
+    for (offset, bytes) in [(p, points), (n, normals), (t, nodes)] {
+        out.resize(offset, 0);
+        out.extend_from_slice(bytes);
+    }
+    out
+}
+
+/// The same pointshell in the version-1 layout, as a version-1 writer made it: version 2's
+/// ([`to_version_2`]) with the 152-byte header without `two_sided_points`, 8 zero bytes, then
+/// the sections, which start at 160 in both versions.
+pub fn to_version_1(v3: &[u8]) -> Vec<u8> {
+    let v2 = to_version_2(v3);
+    let h: RawPsHeaderV2 = bytemuck::pod_read_unaligned(&v2[..PS_HEADER_BYTES_V2]);
     let mut v1 = RawPsHeaderV1 {
         magic: h.magic,
         version: PS_VERSION_1,
@@ -93,10 +142,10 @@ pub fn to_version_1(v2: &[u8]) -> Vec<u8> {
         nodes_crc: h.nodes_crc,
         header_crc: 0,
     };
-    v1.header_crc = crc32fast::hash(&bytemuck::bytes_of(&v1)[..148]);
+    v1.header_crc = v1.compute_crc();
     let mut out = bytemuck::bytes_of(&v1).to_vec();
-    out.resize(160, 0);
-    out.extend_from_slice(&v2[160..]);
+    out.resize(PS_HEADER_BYTES_V2, 0);
+    out.extend_from_slice(&v2[PS_HEADER_BYTES_V2..]);
     out
 }
 

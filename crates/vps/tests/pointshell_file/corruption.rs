@@ -16,8 +16,12 @@ fn every_flipped_byte_is_detected() {
             b[i] ^= mask;
             let r = PointshellFile::from_bytes(&b);
             assert!(r.is_err(), "flipping byte {i} with {mask:#04x} went unnoticed");
-            // Offset 8..12 is the version, checked before the header CRC.
-            if (8..12).contains(&i) {
+            // Offset 8..12 is the version, checked before the header CRC: a flip to an older
+            // version reads that version's header, whose CRC then fails.
+            let version = u32::from_le_bytes(b[8..12].try_into().unwrap());
+            if (8..12).contains(&i) && [PS_VERSION_1, PS_VERSION_2].contains(&version) {
+                assert!(matches!(r, Err(StorageError::HeaderChecksum { .. })), "byte {i}");
+            } else if (8..12).contains(&i) {
                 assert!(matches!(r, Err(StorageError::UnsupportedVersion { .. })));
             } else if (12..PS_HEADER_BYTES).contains(&i) {
                 assert!(matches!(r, Err(StorageError::HeaderChecksum { .. })), "byte {i}");
@@ -80,7 +84,7 @@ fn magic_version_and_header_fields_are_checked() {
 
     // A later version, with a valid header CRC; and without one, since the version comes first.
     // Version 0 was never written either.
-    for version in [3, 0, u32::MAX] {
+    for version in [4, 0, u32::MAX] {
         let mut b = bytes.clone();
         let mut h = header_of(&b);
         h.version = version;
@@ -91,29 +95,32 @@ fn magic_version_and_header_fields_are_checked() {
             }
             match PointshellFile::from_bytes(&b) {
                 Err(StorageError::UnsupportedVersion { found, supported, .. }) => {
-                    assert_eq!((found, supported), (version, 2))
+                    assert_eq!((found, supported), (version, 3))
                 }
                 Err(e) => panic!("{e}"),
                 Ok(_) => panic!("version {version} opened"),
             }
         }
     }
-    // A version-2 header that says version 1 is read as version 1, whose header CRC then sits
-    // elsewhere.
-    let mut b = bytes.clone();
-    let mut h = header_of(&b);
-    h.version = 1;
-    put_header(&mut b, &h);
-    fix_checksums(&mut b);
-    assert!(matches!(
-        PointshellFile::from_bytes(&b),
-        Err(StorageError::HeaderChecksum { .. })
-    ));
+    // A version-3 header that says version 1 or 2 is read as that version, whose header CRC
+    // then sits elsewhere.
+    for version in [PS_VERSION_1, PS_VERSION_2] {
+        let mut b = bytes.clone();
+        let mut h = header_of(&b);
+        h.version = version;
+        put_header(&mut b, &h);
+        fix_checksums(&mut b);
+        assert!(matches!(
+            PointshellFile::from_bytes(&b),
+            Err(StorageError::HeaderChecksum { .. })
+        ));
+    }
 
     // Header fields that pass the CRC but break the rules.
     type Edit = (&'static str, fn(&mut RawPsHeader), &'static str);
-    let edits: [Edit; 3] = [
-        ("header_bytes", |h| h.header_bytes = 152, "offsets"),
+    let edits: [Edit; 4] = [
+        ("header_bytes", |h| h.header_bytes = 160, "offsets"),
+        ("weights offset", |h| h.weights_offset += 16, "offsets"),
         ("nodes offset", |h| h.nodes_offset += 16, "offsets"),
         ("one node fewer", |h| h.nodes -= 1, "offsets"),
     ];
@@ -132,10 +139,43 @@ fn magic_version_and_header_fields_are_checked() {
     let mut h = header_of(&b);
     h.nodes -= 1;
     h.file_bytes -= 48;
-    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..156]);
+    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
     put_header(&mut b, &h);
     b.truncate(h.file_bytes as usize);
     assert!(corrupt_what(PointshellFile::from_bytes(&b)).contains("tree nodes section checksum"));
+}
+
+/// A weight outside `[0, 1]` behind valid checksums is refused at open: the culling bounds
+/// rely on every point pushing at most its depth. So is one that `write_pointshell` is handed.
+#[test]
+fn weights_outside_0_to_1_are_refused() {
+    let (shell, bytes) = small();
+    let at = header_of(&bytes).weights_offset as usize + 4 * 7;
+    for bad in [1.5f32, -0.25, f32::NAN, f32::INFINITY] {
+        let mut b = bytes.clone();
+        b[at..at + 4].copy_from_slice(&bad.to_le_bytes());
+        fix_checksums(&mut b);
+        let what = corrupt_what(PointshellFile::from_bytes(&b));
+        assert!(what.contains("weight 7 is") && what.contains("not in [0, 1]"), "{what}");
+
+        let mut forged = shell.clone();
+        forged.weights[7] = bad;
+        let dir = tempfile::tempdir().unwrap();
+        let e = write_pointshell(dir.path().join("w.vps"), &forged).unwrap_err();
+        assert!(e.to_string().contains("weight 7 is"), "{e}");
+        assert!(names(dir.path()).is_empty(), "nothing written");
+    }
+    // Both ends are allowed.
+    let mut edge = shell.clone();
+    (edge.weights[0], edge.weights[1]) = (0.0, 1.0);
+    let dir = tempfile::tempdir().unwrap();
+    write_pointshell(dir.path().join("edge.vps"), &edge).unwrap();
+    assert_eq!(
+        PointshellFile::open(dir.path().join("edge.vps"))
+            .unwrap()
+            .to_pointshell(),
+        edge
+    );
 }
 
 /// Edit node `k` of a file, recompute every CRC, open it and return the `Corrupt` message.

@@ -1,39 +1,45 @@
-//! Round trips, the byte layout, version 1, atomic writes, the PLY export and the fuzz seeds.
+//! Round trips, the byte layout, versions 1 and 2, atomic writes, the PLY export and the fuzz
+//! seeds.
 
 use super::semantics::exercise;
 use super::*;
 
+/// Files of versions 1 and 2, which have no weights section, open with the weights of their
+/// normals, and otherwise as they were written.
 #[test]
-fn version_1_files_still_open() {
+fn version_1_and_2_files_still_open() {
     let torus = Mesh::from_triangles("torus", shapes::torus(DVec3::new(-4.0, 0.5, 2.0), 5.0, 1.5, 48, 16)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     for (name, shell) in [("small", small().0), ("torus", shell_of(&torus, 0.3, LEAF_SIZE))] {
-        let path = dir.path().join("v2.vps");
+        let path = dir.path().join("v3.vps");
         write_pointshell(&path, &shell).unwrap();
-        let v2 = std::fs::read(&path).unwrap();
-        let v1 = to_version_1(&v2);
-        assert_eq!(v1.len(), v2.len(), "{name}: the sections lie alike");
-        let path = dir.path().join("v1.vps");
-        std::fs::write(&path, &v1).unwrap();
-        for f in [
-            PointshellFile::open(&path).unwrap(),
-            PointshellFile::from_bytes(&v1).unwrap(),
-        ] {
-            let h = f.header();
-            assert_eq!(h.version, 1, "{name}");
-            assert_eq!(h.stats.two_sided_points, 0, "{name}: version 1 did not count them");
-            let expected = PointshellStats {
-                two_sided_points: 0,
-                ..shell.stats
-            };
-            assert_eq!(h.stats, expected, "{name}");
-            assert_eq!(
-                (h.points, h.nodes, h.file_bytes),
-                (shell.len() as u64, shell.tree.nodes.len() as u64, v1.len() as u64)
-            );
-            assert_eq!(f.points(), &shell.points[..]);
-            assert_eq!(f.normals(), &shell.normals[..]);
-            assert_eq!(f.nodes(), &shell.tree.nodes[..]);
+        let v3 = std::fs::read(&path).unwrap();
+        for (version, old) in [(1, to_version_1(&v3)), (2, to_version_2(&v3))] {
+            let weights_bytes = (4 * shell.len()).div_ceil(16) * 16;
+            assert_eq!(old.len() + 16 + weights_bytes, v3.len(), "{name}: no weights section");
+            let path = dir.path().join("old.vps");
+            std::fs::write(&path, &old).unwrap();
+            for f in [
+                PointshellFile::open(&path).unwrap(),
+                PointshellFile::from_bytes(&old).unwrap(),
+            ] {
+                let h = f.header();
+                assert_eq!(h.version, version, "{name}");
+                let expected = PointshellStats {
+                    two_sided_points: if version == 1 { 0 } else { shell.stats.two_sided_points },
+                    ..shell.stats
+                };
+                assert_eq!(h.stats, expected, "{name}: version 1 did not count two-sided points");
+                assert_eq!(
+                    (h.points, h.nodes, h.file_bytes),
+                    (shell.len() as u64, shell.tree.nodes.len() as u64, old.len() as u64)
+                );
+                assert_eq!(f.points(), &shell.points[..]);
+                assert_eq!(f.normals(), &shell.normals[..]);
+                assert_eq!(f.weights(), &vps::pointshell::area_weights(&shell.normals)[..]);
+                assert_eq!(f.nodes(), &shell.tree.nodes[..]);
+                f.verify().unwrap();
+            }
         }
     }
 
@@ -82,20 +88,42 @@ fn header_layout_matches_the_spec() {
         (offset_of!(RawPsHeader, two_sided_points), 104),
         (offset_of!(RawPsHeader, points_offset), 112),
         (offset_of!(RawPsHeader, normals_offset), 120),
-        (offset_of!(RawPsHeader, nodes_offset), 128),
-        (offset_of!(RawPsHeader, file_bytes), 136),
-        (offset_of!(RawPsHeader, points_crc), 144),
-        (offset_of!(RawPsHeader, normals_crc), 148),
-        (offset_of!(RawPsHeader, nodes_crc), 152),
-        (offset_of!(RawPsHeader, header_crc), 156),
+        (offset_of!(RawPsHeader, weights_offset), 128),
+        (offset_of!(RawPsHeader, nodes_offset), 136),
+        (offset_of!(RawPsHeader, file_bytes), 144),
+        (offset_of!(RawPsHeader, points_crc), 152),
+        (offset_of!(RawPsHeader, normals_crc), 156),
+        (offset_of!(RawPsHeader, weights_crc), 160),
+        (offset_of!(RawPsHeader, nodes_crc), 164),
+        (offset_of!(RawPsHeader, reserved), 168),
+        (offset_of!(RawPsHeader, header_crc), 172),
     ];
     for (i, (actual, spec)) in fields.iter().enumerate() {
         assert_eq!(actual, spec, "header field {i}");
     }
-    assert_eq!(PS_HEADER_BYTES, 160);
-    assert_eq!(size_of::<RawPsHeader>(), 160);
+    assert_eq!(PS_HEADER_BYTES, 176);
+    assert_eq!(size_of::<RawPsHeader>(), 176);
     assert_eq!(PS_MAGIC, *b"VPSPSHL\x1a");
-    assert_eq!(PS_VERSION, 2);
+    assert_eq!(PS_VERSION, 3);
+
+    // Version 2, which this build still reads: the same fields without the weights'.
+    let v2 = [
+        (offset_of!(RawPsHeaderV2, two_sided_points), 104),
+        (offset_of!(RawPsHeaderV2, points_offset), 112),
+        (offset_of!(RawPsHeaderV2, normals_offset), 120),
+        (offset_of!(RawPsHeaderV2, nodes_offset), 128),
+        (offset_of!(RawPsHeaderV2, file_bytes), 136),
+        (offset_of!(RawPsHeaderV2, points_crc), 144),
+        (offset_of!(RawPsHeaderV2, normals_crc), 148),
+        (offset_of!(RawPsHeaderV2, nodes_crc), 152),
+        (offset_of!(RawPsHeaderV2, header_crc), 156),
+    ];
+    for (i, (actual, spec)) in v2.iter().enumerate() {
+        assert_eq!(actual, spec, "version 2 header field {i}");
+    }
+    assert_eq!(PS_HEADER_BYTES_V2, 160);
+    assert_eq!(size_of::<RawPsHeaderV2>(), 160);
+    assert_eq!(PS_VERSION_2, 2);
 
     // Version 1, which this build still reads: the same fields without two_sided_points.
     let v1 = [
@@ -160,6 +188,7 @@ fn round_trips_with_the_header_filled_in() {
                 voxel_size: 0.25,
                 points: vec![],
                 normals: vec![],
+                weights: vec![],
                 tree: SphereTree {
                     nodes: vec![],
                     leaf_size: LEAF_SIZE as u32,
@@ -205,15 +234,18 @@ fn round_trips_with_the_header_filled_in() {
         let np = shell.len() as u64;
         assert_eq!(raw.magic, PS_MAGIC);
         assert_eq!(raw.header_bytes as usize, PS_HEADER_BYTES);
-        assert_eq!(raw.points_offset, 160);
-        assert_eq!(raw.normals_offset, up(160 + 12 * np));
-        assert_eq!(raw.nodes_offset, up(raw.normals_offset + 12 * np));
+        assert_eq!(raw.points_offset, 176);
+        assert_eq!(raw.normals_offset, up(176 + 12 * np));
+        assert_eq!(raw.weights_offset, up(raw.normals_offset + 12 * np));
+        assert_eq!(raw.nodes_offset, up(raw.weights_offset + 4 * np));
         assert_eq!(raw.file_bytes, raw.nodes_offset + 48 * h.nodes);
-        assert_eq!(raw.header_crc, crc32fast::hash(&bytes[..156]));
+        assert_eq!(raw.reserved, 0);
+        assert_eq!(raw.header_crc, crc32fast::hash(&bytes[..172]));
         assert_eq!(raw.two_sided_points, shell.stats.two_sided_points);
         let section = |off: u64, len: u64| &bytes[off as usize..(off + len) as usize];
         assert_eq!(raw.points_crc, crc32fast::hash(section(raw.points_offset, 12 * np)));
         assert_eq!(raw.normals_crc, crc32fast::hash(section(raw.normals_offset, 12 * np)));
+        assert_eq!(raw.weights_crc, crc32fast::hash(section(raw.weights_offset, 4 * np)));
         assert_eq!(raw.nodes_crc, crc32fast::hash(section(raw.nodes_offset, 48 * h.nodes)));
         if np > 0 {
             let first: [f32; 3] = bytemuck::pod_read_unaligned(section(raw.points_offset, 12));
@@ -293,6 +325,7 @@ fn write_fuzz_seeds() {
     let empty = Pointshell {
         points: vec![],
         normals: vec![],
+        weights: vec![],
         tree: SphereTree::default(),
         stats: PointshellStats::default(),
         ..tiny.clone()
@@ -301,8 +334,8 @@ fn write_fuzz_seeds() {
     for (name, shell) in [("small", small().0), ("tiny", tiny), ("empty", empty)] {
         let path = dir.path().join("seed.vps");
         write_pointshell(&path, &shell).unwrap();
-        let v2 = std::fs::read(&path).unwrap();
-        for (version, bytes) in [("v1", to_version_1(&v2)), ("v2", v2)] {
+        let v3 = std::fs::read(&path).unwrap();
+        for (version, bytes) in [("v1", to_version_1(&v3)), ("v2", to_version_2(&v3)), ("v3", v3)] {
             // Larger files only with mode 1, to keep the committed seeds (fuzz/seeds) small.
             let modes: &[u8] = if bytes.len() > 4096 { &[1] } else { &[0, 1] };
             for &mode in modes {
@@ -315,7 +348,7 @@ fn write_fuzz_seeds() {
 }
 
 /// The committed seeds of the `vps_open` fuzz target (`fuzz/seeds/vps_open`, written by
-/// `write_fuzz_seeds`) are valid files of both versions after their mode byte.
+/// `write_fuzz_seeds`) are valid files of every version after their mode byte.
 #[test]
 fn committed_fuzz_seeds_are_valid_files() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/vps_open");
@@ -330,7 +363,9 @@ fn committed_fuzz_seeds_are_valid_files() {
         versions.push(f.header().version);
     }
     assert!(
-        versions.contains(&PS_VERSION) && versions.contains(&PS_VERSION_1),
+        [PS_VERSION, PS_VERSION_2, PS_VERSION_1]
+            .iter()
+            .all(|v| versions.contains(v)),
         "{versions:?}"
     );
 }

@@ -10,9 +10,10 @@
 //!    does not depend on thread count.
 //! 2. **Normals.** The sum of the offsets to the voxels of the 5×5×5 neighbourhood, each
 //!    weighted by its voxmap value, normalised: inner layers are positive, so it points into
-//!    the object. Where the sum is small against its terms (thin sheets, open meshes, whose
-//!    two sides look alike), the normal of the point's triangle is used instead, turned to the
-//!    side the voxmap says is more inside.
+//!    the object. It tells the point's side and its area weight; the direction is the point's
+//!    triangle's, turned to that side (the sums lean towards the lattice's axes). Where the
+//!    sum is small against its terms (thin sheets, open meshes, whose two sides look alike),
+//!    the triangle gives both, turned to the side the voxmap says is more inside.
 //!    A point with no inside voxel in that 5×5×5 neighbourhood is counted as *two-sided*
 //!    (`PointshellStats::two_sided_points`): a sheet with air on both sides.
 //! 3. **Tree.** A sphere tree over the points; points are reordered so that every node's
@@ -130,12 +131,14 @@ pub fn pointshell(
     // at the same time, so that each fills the other's idle threads (the tree's first
     // splits, for one, use one thread each).
     let mut normals: Vec<Vec3> = bytemuck::zeroed_vec(total);
+    let mut weights: Vec<f32> = bytemuck::zeroed_vec(total);
     let ((per_run, t_normals), (spheres, t_spheres)) = rayon::join(
         || {
             let t = std::time::Instant::now();
             let per_run: Vec<NormalStats> = split_by_runs(&mut normals, &runs)
                 .into_par_iter()
-                .map(|(run, first, n_out)| {
+                .zip(split_by_runs(&mut weights, &runs))
+                .map(|((run, first, n_out), (_, _, w_out))| {
                     let mut s = NormalStats::default();
                     let mut neighbours = Neighbours::new(voxmap);
                     let mut window = Window::new(voxmap);
@@ -151,13 +154,14 @@ pub fn pointshell(
                             local as u32 >> (2 * BRICK_SHIFT),
                         ];
                         s.mismatches += (window.get(l, [0, 0, 0]) != 0) as u64;
-                        let (n, fell_back, two_sided) = window.normal(l, &mesh.triangles[triangle as usize]);
-                        s.fallbacks += fell_back as u64;
-                        s.two_sided += two_sided as u64;
-                        if two_sided || fell_back {
+                        let n = window.normal(l, &mesh.triangles[triangle as usize]);
+                        s.fallbacks += n.fell_back as u64;
+                        s.two_sided += n.two_sided as u64;
+                        if n.two_sided || n.fell_back {
                             s.to_orient.push((first + at, triangle));
                         }
-                        n_out[at] = n.as_vec3();
+                        n_out[at] = n.normal.as_vec3();
+                        w_out[at] = n.weight;
                     }
                     s
                 })
@@ -184,6 +188,7 @@ pub fn pointshell(
     let (tree, order) = spheres.with_cones(&normals);
     let points = reorder(&points, &order);
     let normals = reorder(&normals, &order);
+    let weights = reorder(&weights, &order);
     report.t_tree = t_spheres + t_cones.elapsed();
     Ok((
         Pointshell {
@@ -191,6 +196,7 @@ pub fn pointshell(
             voxel_size: grid.voxel_size,
             points,
             normals,
+            weights,
             tree,
             stats,
         },

@@ -7,6 +7,7 @@ use glam::DVec3;
 use super::sums::{sums, Sums};
 use super::NORMAL_STABILITY;
 use crate::grid::{local_index, Grid, BRICK};
+use crate::pointshell::area_weight;
 use crate::voxmap::{inside_value, outside_value, BrickRef, Voxmap};
 
 /// [`Voxmap::brick`] for a run of bricks in increasing key order: each of the 27 neighbour
@@ -111,6 +112,24 @@ const SQRT: [f64; 13] = {
 /// is within 10⁻¹⁴; so outside a margin of 10⁻⁴ both give the same answer.
 const STABILITY_MARGIN: f64 = 1e-4;
 
+/// Beyond this angle between the triangle's normal and the 5×5×5 sums' one, the point keeps
+/// the sums' direction: the triangle's side cannot be told from the sums there (an edge or a
+/// corner sharper than 60°, a thin feature).
+pub(super) const TRIANGLE_DIRECTION_ANGLE: f64 = std::f64::consts::FRAC_PI_3;
+
+/// The normal of a pointshell point and the area it stands for ([`Window::normal`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PointNormal {
+    /// Unit, pointing into the object (zero for a degenerate triangle).
+    pub normal: DVec3,
+    /// [`area_weight`] of the surface around the point.
+    pub weight: f32,
+    /// The sums were unstable, so the triangle gave both.
+    pub fell_back: bool,
+    /// No voxel of the 5×5×5 neighbourhood is inside.
+    pub two_sided: bool,
+}
+
 impl Window {
     pub(in crate::generate) fn new(voxmap: &Voxmap) -> Window {
         let far = outside_value(voxmap.layers());
@@ -181,9 +200,16 @@ impl Window {
         )
     }
 
-    /// The inward normal at local voxel `l`; whether the triangle's normal had to be used; and
-    /// whether the point is two-sided: no voxel of its 5×5×5 neighbourhood is inside.
-    pub(super) fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> (DVec3, bool, bool) {
+    /// The inward normal and area weight of the point at local voxel `l`, on triangle `tri`.
+    ///
+    /// Where the 5×5×5 sums are stable, the weight is their normal's [`area_weight`]: it
+    /// follows the voxels the surface actually touches there, which is what the weight counts.
+    /// The direction is the triangle's own, turned to the sums' side, unless the two are more
+    /// than [`TRIANGLE_DIRECTION_ANGLE`] apart: the sums lean towards the nearer lattice axis
+    /// (up to 8° on a sphere), the triangle does not (`docs/HAPTICS.md`, the roll). Where the
+    /// sums are unstable, both come from the triangle, turned towards the side with the larger
+    /// voxmap values.
+    pub(super) fn normal(&self, l: [u32; 3], tri: &[DVec3; 3]) -> PointNormal {
         let Sums {
             s: [sx, sy, sz],
             by_length,
@@ -192,6 +218,7 @@ impl Window {
         } = self.sums(l);
         let sum = DVec3::new(sx as f64, sy as f64, sz as f64);
         let len = sum.length();
+        let facet = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
         if len > 0.0 {
             let scale: f64 = by_length.iter().zip(&SQRT).map(|(&n, &r)| n as f64 * r).sum();
             let threshold = NORMAL_STABILITY * scale;
@@ -201,12 +228,22 @@ impl Window {
                 len > NORMAL_STABILITY * self.scale_f32(l)
             };
             if stable {
-                return (sum / len, false, !inside);
+                let sums = sum / len;
+                let along = facet.dot(sums);
+                let direction = if along.abs() >= TRIANGLE_DIRECTION_ANGLE.cos() {
+                    facet * along.signum()
+                } else {
+                    sums
+                };
+                return PointNormal {
+                    normal: direction,
+                    weight: area_weight(sums.as_vec3()),
+                    fell_back: false,
+                    two_sided: !inside,
+                };
             }
         }
-        // Triangle normal, turned towards the side with the larger voxmap values.
-        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-        let nu = n / self.grid.voxel_size;
+        let nu = facet / self.grid.voxel_size;
         let mut side = 0.0;
         for z in -2..=2 {
             for y in -2..=2 {
@@ -218,7 +255,17 @@ impl Window {
         }
         // With no preference (a sheet seen alike from both sides), OBJ winding makes the
         // triangle normal point out, so its opposite points in.
-        (if side > 0.0 { n } else { -n }, true, !inside)
+        PointNormal {
+            normal: if side > 0.0 { facet } else { -facet },
+            // A degenerate triangle has no normal, and its point no push: any weight will do.
+            weight: if facet == DVec3::ZERO {
+                1.0
+            } else {
+                area_weight(facet.as_vec3())
+            },
+            fell_back: true,
+            two_sided: !inside,
+        }
     }
 
     /// `Σ |value| · |offset|` over the neighbourhood of `l` as the stability test defines it: in

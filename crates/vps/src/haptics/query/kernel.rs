@@ -12,15 +12,8 @@ use crate::voxmap::{far_distance, DISTANCE_STEP};
 /// Points placed and looked up together: a leaf's worth.
 const BATCH: usize = 16;
 
-/// The surface area a pointshell point stands for, in units of the pointshell's voxel face,
-/// from its unit normal `n` in the pointshell's frame: `1 / (|n_x| + |n_y| + |n_z|)`.
-///
-/// The points are one per voxel that the surface touches, and a plane of unit normal `n`
-/// touches the voxels whose centres lie within `(|n_x| + |n_y| + |n_z|) / 2` voxels of it: a
-/// slab holding that many voxels per voxel face of area. So a face at 45° to the lattice has
-/// √2 times the points of an aligned one, and without this weight it pushes √2 times as hard
-/// at the same depth (`docs/HAPTICS.md`). The weight is at most 1 (an aligned face) and at
-/// least 1/√3.
+/// [`crate::pointshell::area_weight`] in `f64`: the time-critical estimate of a node weights
+/// its cone axis with it (at most 1, as every point's weight is).
 #[inline(always)]
 pub(crate) fn area_weight(n: Vec3) -> f64 {
     1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
@@ -68,15 +61,18 @@ impl Frame<'_> {
     ///
     /// Force and torque are summed in the pointshell's frame and without the stiffness,
     /// `Σ f·n` and `Σ f·(p × n)` with `f` the penetration (with interpolated distances, times
-    /// the point's [`area_weight`]); [`Frame::finish`] turns them into world force and torque
+    /// the point's weight, [`crate::pointshell::Pointshell::weights`]); [`Frame::finish`] turns them into world force and torque
     /// once per query. So no normal is rotated, and the stiffness scales the result exactly.
     #[inline]
     pub(super) fn test_points(&self, cur: &mut Cursor<'_>, range: Range<usize>, acc: &mut Contact) {
         acc.points_tested += range.len() as u64;
         let points = &self.points[range.clone()];
-        let normals = &self.normals[range];
+        let normals = &self.normals[range.clone()];
         if self.distance {
-            self.test_points_distance(cur, points, normals, acc);
+            let mut sums = Sums::of(acc);
+            let weights = &self.weights[range];
+            distance_batches(self, Some(cur), points, normals, weights, 0.0, &mut sums);
+            sums.store(acc);
         } else {
             self.test_points_layers(cur, points, normals, acc);
         }
@@ -94,18 +90,11 @@ impl Frame<'_> {
             self,
             None,
             &self.points[range.clone()],
-            &self.normals[range],
+            &self.normals[range.clone()],
+            &self.weights[range],
             deep,
             &mut sums,
         );
-        sums.store(acc);
-    }
-
-    /// [`Frame::test_points`] with interpolated distances.
-    #[inline]
-    fn test_points_distance(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
-        let mut sums = Sums::of(acc);
-        distance_batches(self, Some(cur), points, normals, 0.0, &mut sums);
         sums.store(acc);
     }
 
@@ -147,8 +136,8 @@ impl Frame<'_> {
 /// compiles for wider vectors too, chosen by what the processor has: the same operations in the
 /// same order, so the same bits), then added to `sums` one by one, in index order.
 ///
-/// A point in contact adds `f·n` and `f·(p × n)`, with `f` its distance times its
-/// [`area_weight`], as [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
+/// A point in contact adds `f·n` and `f·(p × n)`, with `f` its distance times its weight, as
+/// [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
 /// starts at +0 and so is never −0).
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn distance_batches(
@@ -156,16 +145,22 @@ fn distance_batches(
     mut cur: Option<&mut Cursor<'_>>,
     points: &[Vec3],
     normals: &[Vec3],
+    weights: &[f32],
     deep: f64,
     sums: &mut Sums,
 ) {
     let (m, u0) = (frame.rot_units, frame.units0);
-    for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
+    let batches = points
+        .chunks(BATCH)
+        .zip(normals.chunks(BATCH))
+        .zip(weights.chunks(BATCH));
+    for ((ps, ns), ws) in batches {
         let len = ps.len();
-        let (mut p, mut n) = ([[0.0f32; BATCH]; 3], [[0.0f32; BATCH]; 3]);
+        let (mut p, mut n, mut w) = ([[0.0f32; BATCH]; 3], [[0.0f32; BATCH]; 3], [0.0f32; BATCH]);
         for k in 0..len {
             (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
             (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
+            w[k] = ws[k];
         }
         let mut d = [0.0f64; BATCH];
         if let Some(cur) = cur.as_deref_mut() {
@@ -198,7 +193,7 @@ fn distance_batches(
         for k in 0..BATCH {
             // As `Sums::add` adds it.
             let (nx, ny, nz) = (n[0][k], n[1][k], n[2][k]);
-            let f = d[k] * area_weight(Vec3::new(nx, ny, nz));
+            let f = d[k] * w[k] as f64;
             let (nx, ny, nz) = (nx as f64, ny as f64, nz as f64);
             let (px, py, pz) = (p[0][k] as f64, p[1][k] as f64, p[2][k] as f64);
             let v = [

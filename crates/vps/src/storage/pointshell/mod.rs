@@ -1,15 +1,15 @@
 //! The `.vps` file: a pointshell laid out for zero-copy use (format in `docs/FORMAT.md`).
 //!
-//! Header, then points (`[f32; 3]` each, tree order), normals (`[f32; 3]`), and sphere-tree
-//! nodes ([`SphereNode`], 48 bytes), each section 16-byte aligned and covered by its own CRC.
-//! Opening maps the file, checks every checksum and the tree's structure (so the query can
-//! index without bounds surprises), and then serves the three sections as slices of the
-//! mapping.
+//! Header, then points (`[f32; 3]` each, tree order), normals (`[f32; 3]`), weights (`f32`)
+//! and sphere-tree nodes ([`SphereNode`], 48 bytes), each section 16-byte aligned and covered
+//! by its own CRC. Opening maps the file, checks every checksum, the weights' range and the
+//! tree's structure (so the query can index without bounds surprises), and then serves the
+//! sections as slices of the mapping.
 //!
-//! This build writes version 2 and reads versions 1 and 2. Version 2 adds one header field,
-//! `two_sided_points`; the sections are laid out alike in both (the 152-byte version-1 header
-//! is followed by 8 bytes of padding, the 160-byte version-2 header by none). A version-1 file
-//! reads with `two_sided_points = 0`.
+//! This build writes version 3 and reads versions 1 to 3. Version 2 added one header field,
+//! `two_sided_points`; version 3 adds the weights section. A version-1 file reads with
+//! `two_sided_points = 0`; a file of version 1 or 2 reads with the weights of its normals
+//! ([`area_weights`]), computed at open.
 
 use std::path::{Path, PathBuf};
 
@@ -17,23 +17,27 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
 
 use super::{mmap::map_file, write_atomically, Backing, StorageError};
-use crate::pointshell::{Pointshell, PointshellStats, SphereNode, SphereTree};
+use crate::pointshell::{area_weights, Pointshell, PointshellStats, SphereNode, SphereTree};
 
 mod format;
 mod writer;
 
 use format::*;
-pub use format::{RawPsHeader, RawPsHeaderV1};
+pub use format::{RawPsHeader, RawPsHeaderV1, RawPsHeaderV2};
 pub use writer::{write_ply, write_pointshell};
 
 /// First bytes of every `.vps` file.
 pub const PS_MAGIC: [u8; 8] = *b"VPSPSHL\x1a";
-/// Format version this build writes; it also reads [`PS_VERSION_1`].
-pub const PS_VERSION: u32 = 2;
+/// Format version this build writes; it also reads [`PS_VERSION_1`] and [`PS_VERSION_2`].
+pub const PS_VERSION: u32 = 3;
 /// The first format version, which this build still reads.
 pub const PS_VERSION_1: u32 = 1;
+/// The second format version (no weights section), which this build still reads.
+pub const PS_VERSION_2: u32 = 2;
 /// Bytes of the header of version [`PS_VERSION`].
 pub const PS_HEADER_BYTES: usize = std::mem::size_of::<RawPsHeader>();
+/// Bytes of the header of version [`PS_VERSION_2`].
+pub const PS_HEADER_BYTES_V2: usize = std::mem::size_of::<RawPsHeaderV2>();
 /// Bytes of the header of version [`PS_VERSION_1`].
 pub const PS_HEADER_BYTES_V1: usize = std::mem::size_of::<RawPsHeaderV1>();
 const NODE_BYTES: u64 = std::mem::size_of::<SphereNode>() as u64;
@@ -81,7 +85,10 @@ pub struct PointshellFile {
     path: PathBuf,
     data: Backing,
     header: PointshellHeader,
-    sections: [std::ops::Range<usize>; 3],
+    /// Points, normals, weights (empty before version 3) and nodes.
+    sections: [std::ops::Range<usize>; 4],
+    /// The weights of a file before version 3, from its normals; empty otherwise.
+    derived_weights: Vec<f32>,
 }
 
 impl PointshellFile {
@@ -119,7 +126,7 @@ impl PointshellFile {
         // The version sits at offset 8 in every version: check it before the header CRC, whose
         // place a later version may move, so that such a file reads as unsupported, not corrupt.
         let version = bytes.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
-        if let Some(found) = version.filter(|v| *v != PS_VERSION && *v != PS_VERSION_1) {
+        if let Some(found) = version.filter(|v| ![PS_VERSION, PS_VERSION_2, PS_VERSION_1].contains(v)) {
             return Err(StorageError::UnsupportedVersion {
                 kind: ".vps pointshell",
                 path: path.clone(),
@@ -127,10 +134,10 @@ impl PointshellFile {
                 supported: PS_VERSION,
             });
         }
-        let header_bytes = if version == Some(PS_VERSION_1) {
-            PS_HEADER_BYTES_V1
-        } else {
-            PS_HEADER_BYTES
+        let header_bytes = match version {
+            Some(PS_VERSION_1) => PS_HEADER_BYTES_V1,
+            Some(PS_VERSION_2) => PS_HEADER_BYTES_V2,
+            _ => PS_HEADER_BYTES,
         };
         if bytes.len() < header_bytes {
             return Err(StorageError::Truncated {
@@ -139,14 +146,23 @@ impl PointshellFile {
                 actual: bytes.len() as u64,
             });
         }
-        // Both versions are read into version 2's header, version 1 with no two-sided points.
-        let (h, computed) = if header_bytes == PS_HEADER_BYTES_V1 {
-            let h: RawPsHeaderV1 = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
-            (h.to_v2(), h.compute_crc())
-        } else {
-            let h: RawPsHeader = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
-            (h, h.compute_crc())
+        // Every version is read into version 3's header: version 1 with no two-sided points,
+        // versions 1 and 2 with no weights section.
+        let (h, computed) = match header_bytes {
+            PS_HEADER_BYTES_V1 => {
+                let h: RawPsHeaderV1 = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
+                (h.to_v3(), h.compute_crc())
+            }
+            PS_HEADER_BYTES_V2 => {
+                let h: RawPsHeaderV2 = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
+                (h.to_v3(), h.compute_crc())
+            }
+            _ => {
+                let h: RawPsHeader = bytemuck::pod_read_unaligned(&bytes[..header_bytes]);
+                (h, h.compute_crc())
+            }
         };
+        let weighted = header_bytes == PS_HEADER_BYTES;
         if computed != h.header_crc {
             return Err(StorageError::HeaderChecksum {
                 path: path.clone(),
@@ -159,9 +175,17 @@ impl PointshellFile {
             field,
             reason,
         })?;
-        let [p, n, t, end] =
-            layout(header_bytes, h.points, h.nodes).ok_or_else(|| corrupt("impossible counts".into()))?;
-        if [h.points_offset, h.normals_offset, h.nodes_offset, h.file_bytes] != [p, n, t, end]
+        let [p, n, w, t, end] =
+            layout(header_bytes, h.points, h.nodes, weighted).ok_or_else(|| corrupt("impossible counts".into()))?;
+        // Before version 3 the weights' offset is not stored (read as 0).
+        let stored_w = if weighted { w } else { 0 };
+        if [
+            h.points_offset,
+            h.normals_offset,
+            h.weights_offset,
+            h.nodes_offset,
+            h.file_bytes,
+        ] != [p, n, stored_w, t, end]
             || h.header_bytes as usize != header_bytes
         {
             return Err(corrupt("section offsets do not match the counts".into()));
@@ -179,15 +203,17 @@ impl PointshellFile {
                 bytes.len() as u64 - end
             )));
         }
-        let (p, n, t, end) = (p as usize, n as usize, t as usize, end as usize);
+        let (p, n, w, t, end) = (p as usize, n as usize, w as usize, t as usize, end as usize);
         let np = h.points as usize;
-        let sections = [p..p + 12 * np, n..n + 12 * np, t..end];
+        let nw = if weighted { np } else { 0 };
+        let sections = [p..p + 12 * np, n..n + 12 * np, w..w + 4 * nw, t..end];
         // No CRC covers the padding before each section: it must be zero, so that every byte
         // of the file is checked.
         for (pad, name) in [
             (header_bytes..p, "header"),
             (sections[0].end..n, "points"),
-            (sections[1].end..t, "normals"),
+            (sections[1].end..w, "normals"),
+            (sections[2].end..t, "weights"),
         ] {
             if bytes[pad].iter().any(|&b| b != 0) {
                 return Err(corrupt(format!("nonzero padding after the {name}")));
@@ -196,11 +222,18 @@ impl PointshellFile {
         for (range, crc, name) in [
             (&sections[0], h.points_crc, "points"),
             (&sections[1], h.normals_crc, "normals"),
-            (&sections[2], h.nodes_crc, "tree nodes"),
+            (&sections[2], h.weights_crc, "weights"),
+            (&sections[3], h.nodes_crc, "tree nodes"),
         ] {
-            if crc32fast::hash(&bytes[range.clone()]) != crc {
+            if (weighted || name != "weights") && crc32fast::hash(&bytes[range.clone()]) != crc {
                 return Err(corrupt(format!("{name} section checksum mismatch")));
             }
+        }
+        // The culling bounds take every point's push as at most its depth: a weight above 1
+        // (or NaN) would break them.
+        let weights: &[f32] = bytemuck::cast_slice(&bytes[sections[2].clone()]);
+        if let Some(i) = weights.iter().position(|w| !(0.0..=1.0).contains(w)) {
+            return Err(corrupt(format!("weight {i} is {}, not in [0, 1]", weights[i])));
         }
         let header = PointshellHeader {
             version: h.version,
@@ -219,12 +252,16 @@ impl PointshellFile {
             },
             file_bytes: h.file_bytes,
         };
-        let f = PointshellFile {
+        let mut f = PointshellFile {
             header,
             path: path.clone(),
             sections,
             data,
+            derived_weights: Vec::new(),
         };
+        if !weighted {
+            f.derived_weights = area_weights(f.normals());
+        }
         f.check_tree().map_err(corrupt)?;
         Ok(f)
     }
@@ -334,9 +371,19 @@ impl PointshellFile {
         bytemuck::cast_slice(&self.data.bytes()[self.sections[1].clone()])
     }
 
+    /// The area each point stands for, in `[0, 1]` ([`Pointshell::weights`]); for a file
+    /// before version 3, [`area_weights`] of its normals.
+    pub fn weights(&self) -> &[f32] {
+        if self.header.version < PS_VERSION {
+            &self.derived_weights
+        } else {
+            bytemuck::cast_slice(&self.data.bytes()[self.sections[2].clone()])
+        }
+    }
+
     /// The sphere-tree nodes; node 0 is the root.
     pub fn nodes(&self) -> &[SphereNode] {
-        bytemuck::cast_slice(&self.data.bytes()[self.sections[2].clone()])
+        bytemuck::cast_slice(&self.data.bytes()[self.sections[3].clone()])
     }
 
     /// Copy the whole pointshell into memory.
@@ -346,6 +393,7 @@ impl PointshellFile {
             voxel_size: self.header.voxel_size,
             points: self.points().to_vec(),
             normals: self.normals().to_vec(),
+            weights: self.weights().to_vec(),
             tree: SphereTree {
                 nodes: self.nodes().to_vec(),
                 leaf_size: self.header.leaf_size,
@@ -364,6 +412,9 @@ impl crate::pointshell::PointshellData for PointshellFile {
     }
     fn normals(&self) -> &[Vec3] {
         PointshellFile::normals(self)
+    }
+    fn weights(&self) -> &[f32] {
+        PointshellFile::weights(self)
     }
     fn nodes(&self) -> &[SphereNode] {
         PointshellFile::nodes(self)

@@ -5,7 +5,8 @@ use super::*;
 /// Write `shell` to `path` atomically (temporary file in the same directory, then rename),
 /// with its tree's leaf size. Returns the file's length.
 ///
-/// Refuses (`InvalidInput`) a shell whose point and normal counts differ, or whose header
+/// Refuses (`InvalidInput`) a shell whose point, normal and weight counts differ, with a
+/// weight outside `[0, 1]`, or whose header
 /// [`PointshellFile::open`] would reject: e.g. points but no tree, `leaf_size` 0, or
 /// statistics that count more points than there are.
 pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell) -> Result<u64, StorageError> {
@@ -14,19 +15,24 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell) -> Result<u6
         path: path.to_path_buf(),
         what,
     };
-    if shell.points.len() != shell.normals.len() {
+    if shell.points.len() != shell.normals.len() || shell.points.len() != shell.weights.len() {
         return Err(invalid(format!(
-            "{} points but {} normals",
+            "{} points but {} normals and {} weights",
             shell.points.len(),
-            shell.normals.len()
+            shell.normals.len(),
+            shell.weights.len()
         )));
+    }
+    if let Some(i) = shell.weights.iter().position(|w| !(0.0..=1.0).contains(w)) {
+        return Err(invalid(format!("weight {i} is {}, not in [0, 1]", shell.weights[i])));
     }
     let n = shell.points.len() as u64;
     let nodes = shell.tree.nodes.len() as u64;
-    let [p_off, n_off, t_off, end] =
-        layout(PS_HEADER_BYTES, n, nodes).ok_or_else(|| invalid("pointshell too large".into()))?;
+    let [p_off, n_off, w_off, t_off, end] =
+        layout(PS_HEADER_BYTES, n, nodes, true).ok_or_else(|| invalid("pointshell too large".into()))?;
     let points: &[u8] = bytemuck::cast_slice(&shell.points);
     let normals: &[u8] = bytemuck::cast_slice(&shell.normals);
+    let weights: &[u8] = bytemuck::cast_slice(&shell.weights);
     let tree: &[u8] = bytemuck::cast_slice(&shell.tree.nodes);
     let mut h = RawPsHeader {
         magic: PS_MAGIC,
@@ -45,11 +51,14 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell) -> Result<u6
         two_sided_points: shell.stats.two_sided_points,
         points_offset: p_off,
         normals_offset: n_off,
+        weights_offset: w_off,
         nodes_offset: t_off,
         file_bytes: end,
         points_crc: crc32fast::hash(points),
         normals_crc: crc32fast::hash(normals),
+        weights_crc: crc32fast::hash(weights),
         nodes_crc: crc32fast::hash(tree),
+        reserved: 0,
         header_crc: 0,
     };
     // What the reader would refuse is refused here, so that every file written opens.
@@ -58,7 +67,7 @@ pub fn write_pointshell(path: impl AsRef<Path>, shell: &Pointshell) -> Result<u6
 
     let mut bytes = Vec::with_capacity(end as usize);
     bytes.extend_from_slice(bytemuck::bytes_of(&h));
-    for (off, section) in [(p_off, points), (n_off, normals), (t_off, tree)] {
+    for (off, section) in [(p_off, points), (n_off, normals), (w_off, weights), (t_off, tree)] {
         bytes.resize(off as usize, 0);
         bytes.extend_from_slice(section);
     }
