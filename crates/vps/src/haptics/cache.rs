@@ -136,7 +136,9 @@ fn shard_of(key: u64) -> usize {
 }
 
 impl CachedVoxmap {
-    /// Open and map a `.vxm` file, with a cache of [`DEFAULT_CACHE_BYTES`].
+    /// Open and map a `.vxm` file, with a cache of [`DEFAULT_CACHE_BYTES`]. Like every
+    /// constructor, it builds the stored-brick bit sets the contact query culls with, so that
+    /// the first query does not.
     pub fn open(path: impl AsRef<std::path::Path>) -> Result<CachedVoxmap, StorageError> {
         Ok(Self::new(VoxmapFile::open(path)?))
     }
@@ -156,9 +158,12 @@ impl CachedVoxmap {
         Self::with_source(Source::Memory(voxmap), DEFAULT_CACHE_BYTES)
     }
 
+    /// The stored-brick bit sets the contact query culls with are built here, not in the first
+    /// query: a haptic loop's first tick should not pay for them (about 5 ms for the 158,000
+    /// stored bricks of the built-in 10⁹-voxel sphere, `docs/PERFORMANCE.md`).
     fn with_source(source: Source, bytes: usize) -> CachedVoxmap {
         let shards = (0..SHARDS).map(|_| RwLock::new(FxHashMap::default())).collect();
-        CachedVoxmap {
+        let cached = CachedVoxmap {
             source,
             shards,
             shard_capacity: (bytes / BRICK_VOXELS / SHARDS).max(16),
@@ -167,7 +172,9 @@ impl CachedVoxmap {
             cursor_hits: AtomicU64::new(0),
             tables: Mutex::new(Vec::new()),
             occupancy: OnceLock::new(),
-        }
+        };
+        cached.occupancy();
+        cached
     }
 
     /// The mapped file underneath, if the voxmap came from one.
