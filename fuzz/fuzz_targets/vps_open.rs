@@ -106,39 +106,30 @@ fn walk(file: &PointshellFile) {
 /// Recompute, wherever the header's offsets and counts allow, the CRC of each section and of
 /// the header, in the layout of the version the input says (1, 2, or else 3).
 fn fix_checksums(data: &mut [u8]) {
-    // Versions 1 and 2 differ in their header's type and length only.
-    macro_rules! fix_old_header {
-        ($header:ty, $bytes:expr) => {{
-            let Some(mut h) = data
-                .get(..$bytes)
-                .and_then(|b| bytemuck::try_pod_read_unaligned::<$header>(b).ok())
-            else {
+    // The versions differ in their header's type and length, and version 3 in its weights.
+    macro_rules! fix_header {
+        ($header:ty, $bytes:expr $(, $weights:expr)?) => {{
+            let Some(mut h) = data.get(..$bytes).and_then(|b| bytemuck::try_pod_read_unaligned::<$header>(b).ok()) else {
                 return;
             };
             let counts = (h.points, h.nodes);
             let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
             let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
             (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+            $($weights(&mut h, &*data);)?
             h.header_crc = h.compute_crc();
             data[..$bytes].copy_from_slice(bytemuck::bytes_of(&h));
-            return;
         }};
     }
     match data.get(8..12).map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]])) {
-        Some(PS_VERSION_1) => fix_old_header!(RawPsHeaderV1, PS_HEADER_BYTES_V1),
-        Some(PS_VERSION_2) => fix_old_header!(RawPsHeaderV2, PS_HEADER_BYTES_V2),
-        _ => {}
+        Some(PS_VERSION_1) => fix_header!(RawPsHeaderV1, PS_HEADER_BYTES_V1),
+        Some(PS_VERSION_2) => fix_header!(RawPsHeaderV2, PS_HEADER_BYTES_V2),
+        _ => fix_header!(RawPsHeader, PS_HEADER_BYTES, fix_weights_crc),
     }
-    let Some(mut h) = data
-        .get(..PS_HEADER_BYTES)
-        .and_then(|b| bytemuck::try_pod_read_unaligned::<RawPsHeader>(b).ok())
-    else {
-        return;
-    };
-    let counts = (h.points, h.nodes);
-    let offsets = (h.points_offset, h.normals_offset, h.nodes_offset);
-    let crcs = (h.points_crc, h.normals_crc, h.nodes_crc);
-    (h.points_crc, h.normals_crc, h.nodes_crc) = section_crcs(data, counts, offsets, crcs);
+}
+
+/// The weights section's CRC, where its offset and the point count lie within `data`.
+fn fix_weights_crc(h: &mut RawPsHeader, data: &[u8]) {
     let weights = h.points.checked_mul(4).and_then(|len| {
         let end = h.weights_offset.checked_add(len)?;
         data.get(usize::try_from(h.weights_offset).ok()?..usize::try_from(end).ok()?)
@@ -146,8 +137,6 @@ fn fix_checksums(data: &mut [u8]) {
     if let Some(bytes) = weights {
         h.weights_crc = crc32fast::hash(bytes);
     }
-    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
-    data[..PS_HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
 }
 
 /// The CRCs of the points, normals and nodes where the counts and offsets lie within `data`,

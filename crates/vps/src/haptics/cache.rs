@@ -13,7 +13,7 @@
 //! hold their brick by `Arc`, so emptying a shard never invalidates a query in flight.
 
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, OnceLock, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
 
 use glam::DVec3;
 use rustc_hash::FxHashMap;
@@ -88,8 +88,9 @@ pub struct CachedVoxmap {
     /// Cursor tables not in use. A cursor takes one and gives it back, so the bricks a haptic
     /// loop touches stay in its table from one query to the next.
     tables: Mutex<Vec<Box<Table>>>,
-    /// Which bricks are stored, at every scale: built by the first cursor.
-    occupancy: OnceLock<Option<Occupancy>>,
+    /// Which bricks are stored, at every scale (`None` for a grid too large, or a file whose
+    /// index cannot be read: the queries then cull by the layers alone).
+    occupancy: Option<Occupancy>,
 }
 
 /// Most idle cursor tables kept: more than the threads that query at once.
@@ -163,7 +164,7 @@ impl CachedVoxmap {
     /// stored bricks of the built-in 10⁹-voxel sphere, `docs/PERFORMANCE.md`).
     fn with_source(source: Source, bytes: usize) -> CachedVoxmap {
         let shards = (0..SHARDS).map(|_| RwLock::new(FxHashMap::default())).collect();
-        let cached = CachedVoxmap {
+        let mut cached = CachedVoxmap {
             source,
             shards,
             shard_capacity: (bytes / BRICK_VOXELS / SHARDS).max(16),
@@ -171,9 +172,9 @@ impl CachedVoxmap {
             hits: AtomicU64::new(0),
             cursor_hits: AtomicU64::new(0),
             tables: Mutex::new(Vec::new()),
-            occupancy: OnceLock::new(),
+            occupancy: None,
         };
-        cached.occupancy();
+        cached.occupancy = cached.stored_bricks();
         cached
     }
 
@@ -284,18 +285,13 @@ impl CachedVoxmap {
             .collect()
     }
 
-    /// Which bricks are stored (`None` for a grid too large, or a file whose index cannot be
-    /// read: the queries then cull by the layers alone).
-    fn occupancy(&self) -> Option<&Occupancy> {
-        self.occupancy
-            .get_or_init(|| {
-                let grid = *self.grid();
-                let mut stored = Vec::new();
-                self.for_each_stored_key(|key| stored.push(grid.brick_coords(key)))
-                    .ok()?;
-                Occupancy::new(grid.brick_dims(), stored)
-            })
-            .as_ref()
+    /// Which bricks are stored (see the `occupancy` field).
+    fn stored_bricks(&self) -> Option<Occupancy> {
+        let grid = *self.grid();
+        let mut stored = Vec::new();
+        self.for_each_stored_key(|key| stored.push(grid.brick_coords(key)))
+            .ok()?;
+        Occupancy::new(grid.brick_dims(), stored)
     }
 
     /// A cursor for a run of nearby look-ups from one thread.
@@ -421,7 +417,7 @@ impl<'a> Cursor<'a> {
             switches: 0,
             shared: 0,
             error: None,
-            occupancy: voxmap.occupancy(),
+            occupancy: voxmap.occupancy.as_ref(),
         }
     }
 

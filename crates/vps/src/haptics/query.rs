@@ -15,10 +15,10 @@ use rayon::prelude::*;
 use super::cache::{CachedVoxmap, Cursor};
 use super::HapticsError;
 use crate::geometry::Pose;
+use crate::pointshell::shell::area_weight_f64;
 use crate::pointshell::tree::SphereNode;
 use crate::pointshell::PointshellData;
 use crate::storage::StorageError;
-pub(crate) use kernel::area_weight;
 
 mod kernel;
 
@@ -527,7 +527,7 @@ impl<'a> Frame<'a> {
             let d = if self.distance {
                 // Weighted like its points, which keeps the estimate within the bound: the
                 // weights are at most 1.
-                self.s * cur.distance_at(u) * area_weight(n.as_vec3())
+                self.s * cur.distance_at(u) * area_weight_f64(n.as_vec3())
             } else {
                 self.penetration(value, v, u, self.rot * n)
             };

@@ -58,7 +58,14 @@ pub struct Pointshell {
 /// would push √2 times as hard at the same depth (`docs/HAPTICS.md`). It is at most 1 (an
 /// aligned face) and at least 1/√3.
 pub fn area_weight(n: Vec3) -> f32 {
-    (1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)) as f32
+    area_weight_f64(n) as f32
+}
+
+/// [`area_weight`] before its rounding to `f32`, as the time-critical estimate of a node uses it
+/// on the node's cone axis.
+#[inline(always)]
+pub(crate) fn area_weight_f64(n: Vec3) -> f64 {
+    1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
 }
 
 /// [`area_weight`] of each normal: the weights of a pointshell that stores none (a `.vps` of

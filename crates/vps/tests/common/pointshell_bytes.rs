@@ -55,7 +55,7 @@ pub fn fix_checksums(bytes: &mut [u8]) {
     h.normals_crc = crc(h.normals_offset, np, h.normals_crc);
     h.weights_crc = crc(h.weights_offset, h.points.checked_mul(4), h.weights_crc);
     h.nodes_crc = crc(h.nodes_offset, h.nodes.checked_mul(48), h.nodes_crc);
-    h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..PS_HEADER_BYTES - 4]);
+    h.header_crc = h.compute_crc();
     put_header(bytes, &h);
 }
 

@@ -12,13 +12,6 @@ use crate::voxmap::{far_distance, DISTANCE_STEP};
 /// Points placed and looked up together: a leaf's worth.
 const BATCH: usize = 16;
 
-/// [`crate::pointshell::area_weight`] in `f64`: the time-critical estimate of a node weights
-/// its cone axis with it (at most 1, as every point's weight is).
-#[inline(always)]
-pub(crate) fn area_weight(n: Vec3) -> f64 {
-    1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)
-}
-
 /// The running sums of [`Frame::test_points`], which live in registers for its loop and are
 /// stored back after it: the same terms in the same order as adding into a [`Contact`].
 struct Sums {

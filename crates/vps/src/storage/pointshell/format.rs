@@ -61,7 +61,8 @@ pub struct RawPsHeader {
 }
 
 impl RawPsHeader {
-    pub(super) fn compute_crc(&self) -> u32 {
+    /// CRC-32 of the header bytes before `header_crc`.
+    pub fn compute_crc(&self) -> u32 {
         let bytes = bytemuck::bytes_of(self);
         crc32fast::hash(&bytes[..PS_HEADER_BYTES - 4])
     }

@@ -225,7 +225,9 @@ impl PointshellFile {
             (&sections[2], h.weights_crc, "weights"),
             (&sections[3], h.nodes_crc, "tree nodes"),
         ] {
-            if (weighted || name != "weights") && crc32fast::hash(&bytes[range.clone()]) != crc {
+            // Before version 3 the weights section is empty and its CRC read as 0, which is the
+            // CRC of no bytes.
+            if crc32fast::hash(&bytes[range.clone()]) != crc {
                 return Err(corrupt(format!("{name} section checksum mismatch")));
             }
         }
