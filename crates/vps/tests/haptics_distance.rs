@@ -228,15 +228,21 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
 
     let grid = *p.voxmap.grid();
     let mut cur = p.voxmap.cursor();
-    let (mut force, mut touching) = (DVec3::ZERO, 0);
+    let (mut force, mut energy, mut touching) = (DVec3::ZERO, 0.0, 0);
     for ((q, n), &w) in shell.points.iter().zip(&shell.normals).zip(&shell.weights) {
         let u = (q.as_dvec3() - grid.origin) / grid.voxel_size;
         let d = grid.voxel_size * cur.distance_at(u);
         if d > 0.0 {
             touching += 1;
             force += 3.0 * d * w as f64 * n.as_dvec3();
+            energy += 0.5 * 3.0 * d * d * w as f64;
         }
     }
+    assert!(
+        (got.energy - energy).abs() <= 1e-9 * energy,
+        "contact energy {} against {energy} point by point",
+        got.energy
+    );
     assert!(touching > 50 && touching < 300, "{touching} points in contact");
     assert_eq!(got.points_in_contact, touching);
     assert!(force.length() > 0.0);

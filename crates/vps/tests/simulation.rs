@@ -173,18 +173,7 @@ fn random_device_motions_in_contact_never_add_energy() {
     let (s, plane, ball) = ball_over_plane();
     let body = MassProperties::of_shell(&ball, 1.0);
     let params = SimulationParams::for_body(&body);
-    let grid = *plane.grid();
-    let contact_energy = |pose: &Pose| {
-        let mut cur = plane.cursor();
-        let mut u_c = 0.0;
-        for (p, &w) in posed(&ball, pose).zip(&ball.weights) {
-            let d = s * cur.distance_at((p - grid.origin) / s);
-            if d > 0.0 {
-                u_c += 0.5 * params.contact.stiffness * d * d * w as f64;
-            }
-        }
-        u_c
-    };
+    let contact_energy = |pose: &Pose| contact_energy(&plane, &ball, params.contact.stiffness, pose);
     let mut rng = shapes::SplitMix(5);
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.0, 0.0, 0.5 + s)).unwrap();
     let mut device = DVec3::new(0.0, 0.0, 0.5 + s);
@@ -218,6 +207,79 @@ fn random_device_motions_in_contact_never_add_energy() {
     }
     assert!(in_contact > 100, "only {in_contact} steps in contact");
     eprintln!("passivity: largest gain over the device's work {worst:.3e}, {in_contact} steps in contact");
+}
+
+/// The energy in the contact's springs, `Σ ½·K·w·d²` over the points of `shell` at `pose`
+/// that are `d > 0` deep in `voxmap`, point by point.
+fn contact_energy(voxmap: &CachedVoxmap, shell: &Pointshell, stiffness: f64, pose: &Pose) -> f64 {
+    let grid = *voxmap.grid();
+    let s = grid.voxel_size;
+    let mut cur = voxmap.cursor();
+    let mut u_c = 0.0;
+    for (p, &w) in posed(shell, pose).zip(&shell.weights) {
+        let d = s * cur.distance_at((p - grid.origin) / s);
+        if d > 0.0 {
+            u_c += 0.5 * stiffness * d * d * w as f64;
+        }
+    }
+    u_c
+}
+
+/// Pressed to the allowed depth and pulled sideways, the object slides, and passively. The
+/// device goes 17 voxels into a ball of radius 3 (voxel 0.1) under the ball of
+/// [`ball_over_plane`], then round it at 0.2 voxel per millisecond: the coupling presses the
+/// object to the depth limit, where the interpolated field (distances rounded to 1/32 voxel)
+/// leans by a few hundredths from the contact force's plane, so a slide across that force
+/// alone goes deeper than allowed; the object must still follow the device round the ball,
+/// its energy never rising by more than the device's work.
+#[test]
+fn an_object_pressed_to_the_depth_limit_still_slides() {
+    let s = 0.1;
+    let big = static_voxmap(shapes::sphere(DVec3::ZERO, 3.0, 96, 192), s);
+    let ball = moving_shell(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
+    let body = MassProperties::of_shell(&ball, 1.0);
+    let params = SimulationParams::for_body(&body);
+    let (c, h) = (params.coupling, params.step);
+    let top = 3.5 + 0.01;
+    let mut sim = Simulation::new(&big, &ball, body, params, at(0.0, 0.0, top)).unwrap();
+    let mut energy = contact_energy(&big, &ball, params.contact.stiffness, &sim.state().pose);
+    let mut device = DVec3::new(0.0, 0.0, top);
+    let (mut limited, mut stalled) = (0, 0);
+    for i in 0..500 {
+        let before = device;
+        device = if i < 100 {
+            DVec3::new(0.0, 0.0, top - 0.017 * i as f64)
+        } else {
+            // 17 voxels in, round the ball at 0.2 voxel per millisecond at the object's radius.
+            let turn = 0.02 * (i - 100) as f64 / top;
+            DVec3::new(turn.sin(), 0.0, turn.cos()) * (top - 1.7)
+        };
+        let (centre_before, v_before) = (sim.state().pose.translation, sim.state().velocity);
+        let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
+        assert!(step.contact.max_penetration <= 0.25 * s + 1e-12, "step {i}");
+        let pull_before = (before - centre_before) * c.stiffness + ((device - before) / h - v_before) * c.damping;
+        let work = 0.5 * (pull_before - step.device_force).dot(device - before);
+        let now = step.kinetic_energy
+            + step.coupling_energy
+            + contact_energy(&big, &ball, params.contact.stiffness, &step.pose);
+        assert!(
+            now - energy - work <= 1e-9 * now.max(1.0),
+            "step {i}: energy {energy} -> {now}, device work {work}"
+        );
+        energy = now;
+        if i > 150 {
+            limited += step.limited as u32;
+            stalled += ((step.pose.translation - centre_before).length() < 1e-3 * s) as u32;
+        }
+    }
+    // The object, held on the ball's surface, is pulled to where the line from the ball's
+    // centre to the device meets it.
+    let (object, device) = (sim.state().pose.translation, device);
+    let angle = object.angle_between(device).to_degrees();
+    eprintln!("pressed slide: {limited} of 349 steps at the limit, {stalled} stalled, {angle:.2}° from the device");
+    assert!(limited > 100, "only {limited} steps at the limit: not pressed");
+    assert!(stalled < 35, "{stalled} of 349 steps stalled");
+    assert!(angle < 5.0, "the object is {angle}° round the ball from the device");
 }
 
 /// The lowest z of `shell`'s points at `pose`.

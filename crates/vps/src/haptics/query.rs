@@ -121,6 +121,10 @@ pub struct Contact {
     pub nodes_culled: u64,
     /// Largest penetration of a tested point, in world units (0 without contact).
     pub max_penetration: f64,
+    /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth
+    /// `d` (`f = K·w·d` with the interpolated distance): the work it takes to press the object
+    /// into this pose, which the haptic loop's energy balance needs.
+    pub energy: f64,
     /// Wall time of the query, in microseconds.
     pub micros: f64,
     /// False when a time budget ran out and some nodes stand for their points.
@@ -144,6 +148,7 @@ impl Contact {
         self.nodes_tested += o.nodes_tested;
         self.nodes_culled += o.nodes_culled;
         self.max_penetration = self.max_penetration.max(o.max_penetration);
+        self.energy += o.energy;
         self.nodes_approximated += o.nodes_approximated;
         self.points_approximated += o.points_approximated;
         self.force_error_bound += o.force_error_bound;
@@ -234,6 +239,7 @@ impl<'a> Frame<'a> {
         let (force, torque) = (acc.force, acc.torque);
         acc.force = self.rot * force * self.k;
         acc.torque = self.rot * (torque + self.origin.cross(force)) * self.k;
+        acc.energy *= 0.5 * self.k;
     }
 
     /// Grid units of a pointshell point.
@@ -536,6 +542,8 @@ impl<'a> Frame<'a> {
                 // `test_points`).
                 acc.force += n * (count * d);
                 acc.torque += node.center().as_dvec3().cross(n) * (count * d);
+                // An estimate too: the weight counted twice, so it errs low.
+                acc.energy += count * d * d;
             }
         }
         Ok(())

@@ -25,7 +25,9 @@
 //!    so the part of the wall deeper than a quarter voxel is at least 0.29 voxels across and
 //!    no point can step over it.
 //!    When stopped, the rest of the motion is tried once more with its part along the contact
-//!    force removed, so a blocked object still slides;
+//!    force removed, so a blocked object still slides; and when that slide is blocked too,
+//!    pressed to the allowed depth, it is lifted off the face by a small slope, if the step
+//!    stays passive (`Ledger`);
 //! 4. the velocity the object really moved with, and the wrench the device feels: the
 //!    coupling's, reversed.
 //!
@@ -239,6 +241,14 @@ const BISECTIONS: u32 = 8;
 const SWEEP_MIN_SUBSTEPS: u32 = 6;
 /// The search stops at a pose this deep, as a fraction of the allowed depth, or deeper.
 const CLOSE_ENOUGH: f64 = 0.9;
+/// A blocked slide is lifted off the face by this many times the depth it would gain, so
+/// that it ends a little shallower than it started.
+const LIFT_PER_GAIN: f64 = 1.5;
+/// A blocked slide is lifted by at most this much per unit of its length (5.7°): the stored
+/// distances are rounded to 1/32 voxel, so the interpolated field's gradient may lean from
+/// the true one by about that much per voxel (1.8° along an axis, 3.1° across a cell's
+/// diagonal); a steeper rise is a real step in the face, which the object must not climb.
+const MAX_LIFT_SLOPE: f64 = 0.1;
 
 /// A simulated rigid object held through a virtual coupling, in contact with a voxmap.
 pub struct Simulation<'a, S: PointshellData + ?Sized> {
@@ -347,6 +357,34 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         }
     }
 
+    /// The kinetic energy of state `s`.
+    fn kinetic_energy(&self, s: &BodyState) -> f64 {
+        let inertia = self.inertia_at(&s.pose);
+        0.5 * self.body.mass * s.velocity.length_squared() + 0.5 * s.angular_velocity.dot(inertia * s.angular_velocity)
+    }
+
+    /// The energy balance of a step to the device at `device`, moving at `device_motion`
+    /// (velocity, angular velocity) since its previous sample.
+    fn ledger(&self, device: &Pose, device_motion: (DVec3, DVec3)) -> Ledger {
+        let h = self.params.step;
+        // The device where the step starts: its previous sample (the same before the first).
+        let before = match self.device_before {
+            Some((centre, rotation)) => {
+                let translation = centre - rotation * self.body.centre;
+                Pose { translation, rotation }
+            }
+            None => *device,
+        };
+        let pull = self.coupling(&self.state, &before, device_motion);
+        Ledger {
+            device: *device,
+            device_motion: (device_motion.0 * h, device_motion.1 * h),
+            device_velocity: device_motion,
+            energy: self.kinetic_energy(&self.state) + pull.energy + self.contact.energy,
+            pull: (pull.force, pull.torque),
+        }
+    }
+
     /// One step towards the device at `device` (a pose of the pointshell's frame, as the
     /// object's). On an error (a brick of the voxmap's file that cannot be read) the
     /// simulation is left as it was.
@@ -389,7 +427,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let held = self.inertia_at(&s.pose) + DMat3::from_diagonal(DVec3::splat(h * c.angular_damping));
         let spin = (held + k_angular * (h * h)).inverse() * (held * s.angular_velocity + h * torque);
 
-        let advance = self.advance(velocity * h, spin * h, started)?;
+        let ledger = self.ledger(&device, device_motion);
+        let advance = self.advance(&ledger, velocity * h, spin * h, started)?;
         let pose = advance.pose;
         // Stopped short: the velocity it really moved with.
         let (velocity, angular_velocity) = if advance.fraction < 1.0 {
@@ -410,7 +449,6 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         self.device_before = Some((device_centre, device.rotation));
 
         let pull = self.coupling(&st, &device, device_motion);
-        let inertia = self.inertia_at(&pose);
         Ok(Step {
             pose,
             device_force: -pull.force,
@@ -419,16 +457,16 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             limited: advance.fraction < 1.0 && !advance.out_of_time,
             out_of_time: advance.out_of_time,
             queries: advance.queries,
-            kinetic_energy: 0.5 * m * st.velocity.length_squared()
-                + 0.5 * st.angular_velocity.dot(inertia * st.angular_velocity),
+            kinetic_energy: self.kinetic_energy(&st),
             coupling_energy: pull.energy,
             micros: started.elapsed().as_secs_f64() * 1e6,
         })
     }
 
     /// Move the object by `shift` (of its centre of mass) and `turn` (a rotation vector about
-    /// it) as far as the allowed depth and the time budget (counted from `started`) let it.
-    fn advance(&self, shift: DVec3, turn: DVec3, started: Instant) -> Result<Advance, HapticsError> {
+    /// it) as far as the allowed depth and the time budget (counted from `started`) let it;
+    /// `ledger` is the step's energy balance, for the lifted slide.
+    fn advance(&self, ledger: &Ledger, shift: DVec3, turn: DVec3, started: Instant) -> Result<Advance, HapticsError> {
         let deadline = self.params.step_budget.map(|b| started + b);
         let first = self.advance_from(&self.state.pose, self.contact, shift, turn, deadline)?;
         if first.fraction >= 1.0 || first.out_of_time {
@@ -444,12 +482,69 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         };
         let shift = along(shift * rest, first.contact.force);
         let turn = along(turn * rest, first.contact.torque);
-        let slid = self.advance_from(&first.pose, first.contact, shift, turn, deadline)?;
+        let mut slid = self.advance_from(&first.pose, first.contact, shift, turn, deadline)?;
+        if slid.fraction < 1.0 && !slid.out_of_time {
+            let rest = 1.0 - slid.fraction;
+            let (lifted, queries) = self.lifted_slide(ledger, &slid, shift * rest, turn * rest, deadline)?;
+            slid.queries += queries;
+            if let Some(lifted) = lifted {
+                slid = Advance {
+                    queries: slid.queries,
+                    ..lifted
+                };
+            }
+        }
         Ok(Advance {
             queries: first.queries + slid.queries,
             fraction: first.fraction,
             ..slid
         })
+    }
+
+    /// A slide blocked at `from` although it runs across the contact force. Pressed to the
+    /// allowed depth, the object has no room for the lean of the face as the distance field
+    /// sees it from the face the points' normals see: the stored distances are rounded to
+    /// 1/32 voxel, so the interpolated field's gradient leans from the true one by up to about
+    /// 1/32 per voxel, and a slide across the contact force may go deeper at 2–3 % of its
+    /// length. So the rest of the slide (`shift`, `turn`) is tried once more lifted along the
+    /// contact force by [`LIFT_PER_GAIN`] times the depth it would gain, when that is a small
+    /// slope of the slide ([`MAX_LIFT_SLOPE`]: a real step in the face still stops the
+    /// object), and kept only if the step stays passive by `ledger`: the object's energy
+    /// after it no more than before plus the device's work. Also the queries it ran.
+    fn lifted_slide(
+        &self,
+        ledger: &Ledger,
+        from: &Advance,
+        shift: DVec3,
+        turn: DVec3,
+        deadline: Option<Instant>,
+    ) -> Result<(Option<Advance>, u32), HapticsError> {
+        let normal = from.contact.force.normalize_or_zero();
+        let reach = shift.length() + turn.length() * self.radius;
+        if normal == DVec3::ZERO || reach == 0.0 {
+            return Ok((None, 0));
+        }
+        let Some(at_end) = self.checked(&self.moved(&from.pose, shift, turn, 1.0)?, deadline)? else {
+            return Ok((None, 1));
+        };
+        let gain = at_end.max_penetration - from.contact.max_penetration;
+        let lift = LIFT_PER_GAIN * gain;
+        if gain <= 0.0 || lift > MAX_LIFT_SLOPE * reach {
+            return Ok((None, 1));
+        }
+        let lifted = self.advance_from(&from.pose, from.contact, shift + normal * lift, turn, deadline)?;
+        let queries = 1 + lifted.queries;
+        let kept = lifted.fraction > 0.0 && !lifted.out_of_time && ledger.passive(self, &lifted);
+        Ok((kept.then_some(lifted), queries))
+    }
+
+    /// `from` moved by `fraction` of `shift` (of the centre of mass) and `turn` (about it).
+    fn moved(&self, from: &Pose, shift: DVec3, turn: DVec3, fraction: f64) -> Result<Pose, HapticsError> {
+        let rotation = (DQuat::from_scaled_axis(turn * fraction) * from.rotation).normalize();
+        let c = self.centre_at(from) + shift * fraction;
+        let translation = c - rotation * self.body.centre;
+        let q = [rotation.w, rotation.x, rotation.y, rotation.z];
+        Ok(Pose::new(translation.to_array(), q)?)
     }
 
     /// The contact at `pose`, or `None` when the time to `deadline` ran out before a complete
@@ -490,15 +585,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         } else {
             (wanted.max(1.0) as u32, 1.0)
         };
-        let centre = self.centre_at(from);
-        let at = |fraction: f64| -> Result<Pose, HapticsError> {
-            let f = fraction * scale;
-            let rotation = (DQuat::from_scaled_axis(turn * f) * from.rotation).normalize();
-            let c = centre + shift * f;
-            let translation = c - rotation * self.body.centre;
-            let q = [rotation.w, rotation.x, rotation.y, rotation.z];
-            Ok(Pose::new(translation.to_array(), q)?)
-        };
+        let at = |fraction: f64| self.moved(from, shift, turn, fraction * scale);
         let mut done = Advance {
             pose: *from,
             contact: at_start,
@@ -613,6 +700,43 @@ struct Advance {
     queries: u32,
     /// Whether the time budget stopped it.
     out_of_time: bool,
+}
+
+/// A step's energy balance, as `tests/simulation.rs` checks passivity: the object's energy
+/// (kinetic, the coupling's springs, the contact's) at the end of the step may exceed the
+/// energy at its start by at most the device's work through the coupling, the mean of the
+/// coupling's force at the two ends times the device's motion (the trapezoid rule; the
+/// spring's end moves with the hand).
+struct Ledger {
+    /// The device's pose at the end of the step.
+    device: Pose,
+    /// The device's displacement and rotation vector over the step.
+    device_motion: (DVec3, DVec3),
+    /// The device's velocities over the step.
+    device_velocity: (DVec3, DVec3),
+    /// The object's energy at the start of the step.
+    energy: f64,
+    /// The coupling's force and torque on the object at the start of the step.
+    pull: (DVec3, DVec3),
+}
+
+impl Ledger {
+    /// Whether ending the step at `end` keeps it passive, with no rounding margin given away.
+    fn passive<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>, end: &Advance) -> bool {
+        let h = sim.params.step;
+        let start = &sim.state.pose;
+        let state = BodyState {
+            pose: end.pose,
+            velocity: (sim.centre_at(&end.pose) - sim.centre_at(start)) / h,
+            angular_velocity: rotation_vector(end.pose.rotation * start.rotation.inverse()) / h,
+        };
+        let pull = sim.coupling(&state, &self.device, self.device_velocity);
+        let energy = sim.kinetic_energy(&state) + pull.energy + end.contact.energy;
+        let work = 0.5
+            * ((self.pull.0 + pull.force).dot(self.device_motion.0)
+                + (self.pull.1 + pull.torque).dot(self.device_motion.1));
+        energy <= self.energy + work
+    }
 }
 
 /// The rotation vector (axis times angle, the angle in [0, π]) of unit quaternion `q`.

@@ -49,6 +49,7 @@ pub fn assert_same(a: &Contact, b: &Contact, what: &str) {
     assert_eq!(a.torque, b.torque, "{what}: torque");
     assert_eq!(a.points_in_contact, b.points_in_contact, "{what}: points in contact");
     assert_eq!(a.max_penetration, b.max_penetration, "{what}: max penetration");
+    assert_eq!(a.energy, b.energy, "{what}: energy");
 }
 
 /// The culled walk gives the same bits as testing every point, having tested no more.

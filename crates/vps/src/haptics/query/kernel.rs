@@ -19,6 +19,7 @@ struct Sums {
     torque: DVec3,
     touching: u64,
     deepest: f64,
+    energy: f64,
 }
 
 impl Sums {
@@ -29,6 +30,7 @@ impl Sums {
             torque: acc.torque,
             touching: 0,
             deepest: acc.max_penetration,
+            energy: acc.energy,
         }
     }
 
@@ -38,6 +40,7 @@ impl Sums {
         self.force += n * f;
         self.torque += p.as_dvec3().cross(n) * f;
         self.deepest = self.deepest.max(d);
+        self.energy += f * d;
     }
 
     #[inline(always)]
@@ -46,6 +49,7 @@ impl Sums {
         acc.torque = self.torque;
         acc.points_in_contact += self.touching;
         acc.max_penetration = self.deepest;
+        acc.energy = self.energy;
     }
 }
 
@@ -129,8 +133,8 @@ impl Frame<'_> {
 /// compiles for wider vectors too, chosen by what the processor has: the same operations in the
 /// same order, so the same bits), then added to `sums` one by one, in index order.
 ///
-/// A point in contact adds `f·n` and `f·(p × n)`, with `f` its distance times its weight, as
-/// [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
+/// A point in contact adds `f·n`, `f·(p × n)` and `f·d`, with `f` its distance `d` times its
+/// weight, as [`Sums::add`]; the others add zeros, which leave a sum unchanged (it
 /// starts at +0 and so is never −0).
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn distance_batches(
@@ -182,7 +186,7 @@ fn distance_batches(
             // Nothing to add, and no deeper point (all d ≤ 0).
             continue;
         }
-        let mut push = [[0.0f64; BATCH]; 6];
+        let mut push = [[0.0f64; BATCH]; 7];
         for k in 0..BATCH {
             // As `Sums::add` adds it.
             let (nx, ny, nz) = (n[0][k], n[1][k], n[2][k]);
@@ -196,6 +200,7 @@ fn distance_batches(
                 (py * nz - ny * pz) * f,
                 (pz * nx - nz * px) * f,
                 (px * ny - nx * py) * f,
+                f * d[k],
             ];
             for (push, v) in push.iter_mut().zip(v) {
                 push[k] = if touch[k] { v } else { 0.0 };
@@ -205,6 +210,7 @@ fn distance_batches(
             sums.touching += touch[k] as u64;
             sums.force += DVec3::new(push[0][k], push[1][k], push[2][k]);
             sums.torque += DVec3::new(push[3][k], push[4][k], push[5][k]);
+            sums.energy += push[6][k];
         }
         // The deepest point, by halving: `max` is exact, so the order is free, and one chain
         // through the running maximum cost more than the sums (d ≤ 0 leaves it as it is).
