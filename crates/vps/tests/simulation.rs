@@ -278,7 +278,7 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
     let angle = object.angle_between(device).to_degrees();
     eprintln!("pressed slide: {limited} of 349 steps at the limit, {stalled} stalled, {angle:.2}° from the device");
     assert!(limited > 100, "only {limited} steps at the limit: not pressed");
-    assert!(stalled < 35, "{stalled} of 349 steps stalled");
+    assert!(stalled < 5, "{stalled} of 349 steps stalled");
     assert!(angle < 5.0, "the object is {angle}° round the ball from the device");
 }
 
