@@ -137,7 +137,11 @@ def test_contact_of_a_ball_pressed_into_a_box_pushes_it_out(tmp_path, run_vps):
     assert touching == c.points_in_contact > 0
     assert force[2] > 0 and abs(force[0]) < 0.2 * force[2] and abs(force[1]) < 0.2 * force[2]
     assert c.complete and c.max_penetration > 0
+    # The springs' energy, Σ ½·K·d² over the points pushing: positive, and linear in K.
+    assert c.energy > 0
+    assert vps.contact(wall, shell, pose, stiffness=2.0).energy == pytest.approx(2 * c.energy, rel=1e-12)
     assert vps.contact(wall, shell, (0.0, 0.0, 3.0)).points_in_contact == 0
+    assert vps.contact(wall, shell, (0.0, 0.0, 3.0)).energy == 0
     # The same query from the command line, on the files.
     vxm, vps_file = tmp_path / "wall.vxm", tmp_path / "ball.vps"
     wall.write(vxm)

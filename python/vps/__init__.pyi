@@ -112,6 +112,7 @@ class Contact:
     points_in_contact: int
     points_tested: int
     max_penetration: float
+    energy: float
     complete: bool
     force_error_bound: float
     micros: float

@@ -362,6 +362,18 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         }
     }
 
+    /// The object's state if this step ends at `pose`: moving with the velocity that takes it
+    /// there from the step's start.
+    fn ending_at(&self, pose: &Pose) -> BodyState {
+        let h = self.params.step;
+        let start = &self.state.pose;
+        BodyState {
+            pose: *pose,
+            velocity: (self.centre_at(pose) - self.centre_at(start)) / h,
+            angular_velocity: rotation_vector(pose.rotation * start.rotation.inverse()) / h,
+        }
+    }
+
     /// The kinetic energy of state `s`.
     fn kinetic_energy(&self, s: &BodyState) -> f64 {
         let inertia = self.inertia_at(&s.pose);
@@ -436,17 +448,14 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let advance = self.advance(&ledger, velocity * h, spin * h, started)?;
         let pose = advance.pose;
         // Stopped short: the velocity it really moved with.
-        let (velocity, angular_velocity) = if advance.fraction < 1.0 {
-            let moved = self.centre_at(&pose) - centre;
-            let turned = rotation_vector(pose.rotation * s.pose.rotation.inverse());
-            (moved / h, turned / h)
+        let st = if advance.fraction < 1.0 {
+            self.ending_at(&pose)
         } else {
-            (velocity, spin)
-        };
-        let st = BodyState {
-            pose,
-            velocity,
-            angular_velocity,
+            BodyState {
+                pose,
+                velocity,
+                angular_velocity: spin,
+            }
         };
         self.state = st;
         self.contact = advance.contact;
@@ -551,7 +560,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         // The slide would keep more kinetic energy than the step may have: shorten it by what
         // that takes, were the kinetic energy all there is (it mostly is: the springs and the
         // contact change little along a slide), and try once more.
-        let kinetic = self.kinetic_energy(&ledger.state_at(self, &lifted.pose));
+        let kinetic = self.kinetic_energy(&self.ending_at(&lifted.pose));
         let shorter = (1.0 - 2.0 * excess / kinetic).max(0.0).sqrt();
         if shorter < MIN_SHORTER_SLIDE {
             return Ok((None, queries));
@@ -751,22 +760,10 @@ struct Ledger {
 }
 
 impl Ledger {
-    /// The object's state if the step ends at `pose`: moving with the velocity that takes it
-    /// there from the step's start.
-    fn state_at<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>, pose: &Pose) -> BodyState {
-        let h = sim.params.step;
-        let start = &sim.state.pose;
-        BodyState {
-            pose: *pose,
-            velocity: (sim.centre_at(pose) - sim.centre_at(start)) / h,
-            angular_velocity: rotation_vector(pose.rotation * start.rotation.inverse()) / h,
-        }
-    }
-
     /// How much more energy the object has if the step ends at `end` than the step may give
     /// it: passive when not positive (no rounding margin given away).
     fn excess<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>, end: &Advance) -> f64 {
-        let state = self.state_at(sim, &end.pose);
+        let state = sim.ending_at(&end.pose);
         let pull = sim.coupling(&state, &self.device, self.device_velocity);
         let energy = sim.kinetic_energy(&state) + pull.energy + end.contact.energy;
         let work = 0.5
