@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 
-use vps::haptics::simulation::{MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{BodyState, MassProperties, Simulation, SimulationParams, Step};
 use vps::{shapes, CachedVoxmap, Pointshell, Pose};
 
 mod common;
@@ -173,56 +173,86 @@ fn random_device_motions_in_contact_never_add_energy() {
     let (s, plane, ball) = ball_over_plane();
     let body = MassProperties::of_shell(&ball, 1.0);
     let params = SimulationParams::for_body(&body);
-    let contact_energy = |pose: &Pose| contact_energy(&plane, &ball, params.contact.stiffness, pose);
     let mut rng = shapes::SplitMix(5);
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.0, 0.0, 0.5 + s)).unwrap();
+    let mut balance = EnergyBalance::new(&plane, &ball, params, &sim.state().pose);
     let mut device = DVec3::new(0.0, 0.0, 0.5 + s);
-    let mut energy = contact_energy(&sim.state().pose);
-    let (c, h) = (params.coupling, params.step);
     let (mut in_contact, mut worst) = (0, f64::NEG_INFINITY);
     for i in 0..600 {
         // A random walk of the hand, up to ±3 voxels about the resting height, ±1 voxel/ms.
         let before = device;
         device += DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * s;
         device.z = device.z.clamp(0.5 - 3.0 * s, 0.5 + 3.0 * s);
-        let centre_before = sim.state().pose.translation;
-        let v_before = sim.state().velocity;
+        let state = *sim.state();
         let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
-        // The coupling's force on the object, at the start and end of the step; the device did
-        // their mean times its own displacement (trapezoid rule), the spring's end moving
-        // with the hand.
-        let device_velocity = (device - before) / h;
-        let pull_before = (before - centre_before) * c.stiffness + (device_velocity - v_before) * c.damping;
-        let pull_after = -step.device_force;
-        let work = 0.5 * (pull_before + pull_after).dot(device - before);
-        let now = step.kinetic_energy + step.coupling_energy + contact_energy(&step.pose);
-        let gain = now - energy - work;
-        worst = worst.max(gain);
-        assert!(
-            gain <= 1e-9 * now.max(1.0),
-            "step {i}: energy {energy} -> {now}, device work {work}: {gain} made from nothing"
-        );
+        worst = worst.max(balance.check(i, &state, before, device, &step));
         in_contact += (step.contact.points_in_contact > 0) as u32;
-        energy = now;
     }
     assert!(in_contact > 100, "only {in_contact} steps in contact");
     eprintln!("passivity: largest gain over the device's work {worst:.3e}, {in_contact} steps in contact");
 }
 
-/// The energy in the contact's springs, `Σ ½·K·w·d²` over the points of `shell` at `pose`
-/// that are `d > 0` deep in `voxmap`, point by point.
-fn contact_energy(voxmap: &CachedVoxmap, shell: &Pointshell, stiffness: f64, pose: &Pose) -> f64 {
-    let grid = *voxmap.grid();
-    let s = grid.voxel_size;
-    let mut cur = voxmap.cursor();
-    let mut u_c = 0.0;
-    for (p, &w) in posed(shell, pose).zip(&shell.weights) {
-        let d = s * cur.distance_at((p - grid.origin) / s);
-        if d > 0.0 {
-            u_c += 0.5 * stiffness * d * d * w as f64;
-        }
+/// Issue 13's passivity, step by step, for a device that only translates: the object's
+/// energy (kinetic, the coupling's springs, the contact's springs `Σ ½·K·w·d²`, measured point
+/// by point) may rise in a step by at most the work the device did on it through the
+/// coupling: the coupling's force on the object at the start and end of the step, averaged
+/// (trapezoid rule), times the device's displacement, the spring's end moving with the hand.
+struct EnergyBalance<'a> {
+    voxmap: &'a CachedVoxmap,
+    shell: &'a Pointshell,
+    params: SimulationParams,
+    /// The object's energy after the last step checked.
+    energy: f64,
+}
+
+impl<'a> EnergyBalance<'a> {
+    /// The balance of an object at rest at `start`.
+    fn new(voxmap: &'a CachedVoxmap, shell: &'a Pointshell, params: SimulationParams, start: &Pose) -> Self {
+        let mut balance = EnergyBalance {
+            voxmap,
+            shell,
+            params,
+            energy: 0.0,
+        };
+        balance.energy = balance.contact_energy(start);
+        balance
     }
-    u_c
+
+    /// The energy in the contact's springs at `pose`.
+    fn contact_energy(&self, pose: &Pose) -> f64 {
+        let grid = *self.voxmap.grid();
+        let s = grid.voxel_size;
+        let mut cur = self.voxmap.cursor();
+        let mut u_c = 0.0;
+        for (p, &w) in posed(self.shell, pose).zip(&self.shell.weights) {
+            let d = s * cur.distance_at((p - grid.origin) / s);
+            if d > 0.0 {
+                u_c += 0.5 * self.params.contact.stiffness * d * d * w as f64;
+            }
+        }
+        u_c
+    }
+
+    /// Step `i`, from the object in `state` with the device moving from `before` to `device`:
+    /// asserts it made no energy from nothing (beyond 10⁻⁹ of the energy, rounding) and
+    /// returns what it made (negative when it lost some).
+    fn check(&mut self, i: usize, state: &BodyState, before: DVec3, device: DVec3, step: &Step) -> f64 {
+        let (c, h) = (self.params.coupling, self.params.step);
+        let device_velocity = (device - before) / h;
+        let pull_before =
+            (before - state.pose.translation) * c.stiffness + (device_velocity - state.velocity) * c.damping;
+        let pull_after = -step.device_force;
+        let work = 0.5 * (pull_before + pull_after).dot(device - before);
+        let now = step.kinetic_energy + step.coupling_energy + self.contact_energy(&step.pose);
+        let gain = now - self.energy - work;
+        assert!(
+            gain <= 1e-9 * now.max(1.0),
+            "step {i}: energy {} -> {now}, device work {work}: {gain} made from nothing",
+            self.energy
+        );
+        self.energy = now;
+        gain
+    }
 }
 
 /// Pressed to the allowed depth and pulled sideways, the object slides, and passively. The
@@ -239,10 +269,9 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
     let ball = moving_shell(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
     let body = MassProperties::of_shell(&ball, 1.0);
     let params = SimulationParams::for_body(&body);
-    let (c, h) = (params.coupling, params.step);
     let top = 3.5 + 0.01;
     let mut sim = Simulation::new(&big, &ball, body, params, at(0.0, 0.0, top)).unwrap();
-    let mut energy = contact_energy(&big, &ball, params.contact.stiffness, &sim.state().pose);
+    let mut balance = EnergyBalance::new(&big, &ball, params, &sim.state().pose);
     let mut device = DVec3::new(0.0, 0.0, top);
     let (mut limited, mut stalled) = (0, 0);
     for i in 0..500 {
@@ -254,22 +283,13 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
             let turn = 0.02 * (i - 100) as f64 / top;
             DVec3::new(turn.sin(), 0.0, turn.cos()) * (top - 1.7)
         };
-        let (centre_before, v_before) = (sim.state().pose.translation, sim.state().velocity);
+        let state = *sim.state();
         let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
         assert!(step.contact.max_penetration <= 0.25 * s + 1e-12, "step {i}");
-        let pull_before = (before - centre_before) * c.stiffness + ((device - before) / h - v_before) * c.damping;
-        let work = 0.5 * (pull_before - step.device_force).dot(device - before);
-        let now = step.kinetic_energy
-            + step.coupling_energy
-            + contact_energy(&big, &ball, params.contact.stiffness, &step.pose);
-        assert!(
-            now - energy - work <= 1e-9 * now.max(1.0),
-            "step {i}: energy {energy} -> {now}, device work {work}"
-        );
-        energy = now;
+        balance.check(i, &state, before, device, &step);
         if i > 150 {
             limited += step.limited as u32;
-            stalled += ((step.pose.translation - centre_before).length() < 1e-3 * s) as u32;
+            stalled += ((step.pose.translation - state.pose.translation).length() < 1e-3 * s) as u32;
         }
     }
     // The object, held on the ball's surface, is pulled to where the line from the ball's

@@ -264,8 +264,8 @@ pub struct Simulation<'a, S: PointshellData + ?Sized> {
     state: BodyState,
     /// The contact at the current pose.
     contact: Contact,
-    /// The device's centre of mass and orientation at the previous step.
-    device_before: Option<(DVec3, DQuat)>,
+    /// The device's pose at the previous step.
+    device_before: Option<Pose>,
     /// The largest distance of a point from the centre of mass.
     radius: f64,
     /// The voxmap's voxel size.
@@ -383,19 +383,11 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
     /// The energy balance of a step to the device at `device`, moving at `device_motion`
     /// (velocity, angular velocity) since its previous sample.
     fn ledger(&self, device: &Pose, device_motion: (DVec3, DVec3)) -> Ledger {
-        let h = self.params.step;
         // The device where the step starts: its previous sample (the same before the first).
-        let before = match self.device_before {
-            Some((centre, rotation)) => {
-                let translation = centre - rotation * self.body.centre;
-                Pose { translation, rotation }
-            }
-            None => *device,
-        };
+        let before = self.device_before.unwrap_or(*device);
         let pull = self.coupling(&self.state, &before, device_motion);
         Ledger {
             device: *device,
-            device_motion: (device_motion.0 * h, device_motion.1 * h),
             device_velocity: device_motion,
             energy: self.kinetic_energy(&self.state) + pull.energy + self.contact.energy,
             pull: (pull.force, pull.torque),
@@ -412,9 +404,9 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let device_centre = self.centre_at(&device);
         // The device's velocities, by finite difference (none before its second sample).
         let (device_velocity, device_spin) = match self.device_before {
-            Some((x, q)) => (
-                (device_centre - x) / h,
-                rotation_vector(device.rotation * q.inverse()) / h,
+            Some(before) => (
+                (device_centre - self.centre_at(&before)) / h,
+                rotation_vector(device.rotation * before.rotation.inverse()) / h,
             ),
             None => (DVec3::ZERO, DVec3::ZERO),
         };
@@ -460,7 +452,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         self.state = st;
         self.contact = advance.contact;
         // Only now: a step that fails leaves the simulation as it was.
-        self.device_before = Some((device_centre, device.rotation));
+        self.device_before = Some(device);
 
         let pull = self.coupling(&st, &device, device_motion);
         Ok(Step {
@@ -749,8 +741,6 @@ struct Advance {
 struct Ledger {
     /// The device's pose at the end of the step.
     device: Pose,
-    /// The device's displacement and rotation vector over the step.
-    device_motion: (DVec3, DVec3),
     /// The device's velocities over the step.
     device_velocity: (DVec3, DVec3),
     /// The object's energy at the start of the step.
@@ -766,9 +756,10 @@ impl Ledger {
         let state = sim.ending_at(&end.pose);
         let pull = sim.coupling(&state, &self.device, self.device_velocity);
         let energy = sim.kinetic_energy(&state) + pull.energy + end.contact.energy;
-        let work = 0.5
-            * ((self.pull.0 + pull.force).dot(self.device_motion.0)
-                + (self.pull.1 + pull.torque).dot(self.device_motion.1));
+        // The device's displacement and rotation vector over the step.
+        let h = sim.params.step;
+        let (moved, turned) = (self.device_velocity.0 * h, self.device_velocity.1 * h);
+        let work = 0.5 * ((self.pull.0 + pull.force).dot(moved) + (self.pull.1 + pull.torque).dot(turned));
         energy - (self.energy + work)
     }
 }
