@@ -53,6 +53,8 @@ pub(crate) struct PyStep {
     kinetic_energy: f64,
     /// Energy in the coupling's springs after the step.
     coupling_energy: f64,
+    /// Energy the step took away to stay passive; 0 for nearly every step (`docs/HAPTICS.md`).
+    damped_energy: f64,
     /// Wall time of the step, microseconds.
     micros: f64,
 }
@@ -71,6 +73,7 @@ impl From<Step> for PyStep {
             queries: s.queries,
             kinetic_energy: s.kinetic_energy,
             coupling_energy: s.coupling_energy,
+            damped_energy: s.damped_energy,
             micros: s.micros,
         }
     }

@@ -216,8 +216,10 @@ impl Cursor<'_> {
         if self.table.as_ref()?.apron_keys[at] != key {
             self.build_apron(b, key, at)?;
         }
-        (self.apron_brick, self.apron_at) = (b, at);
-        self.apron_flat = self.table.as_ref()?.apron_flat[at];
+        let table = self.table.as_ref()?;
+        // A flat entry may have no apron yet; its position is then never read.
+        (self.apron_brick, self.apron_at) = (b, table.apron_pos[at] as usize);
+        self.apron_flat = table.apron_flat[at];
         Some(())
     }
 
@@ -284,11 +286,18 @@ impl Cursor<'_> {
             }
         }
         let table = self.table.as_mut()?;
-        if table.aprons.is_empty() {
-            table.aprons = vec![[0; APRON_EDGE * APRON_EDGE * APRON_EDGE]; APRON_SLOTS];
-        }
         table.apron_flat[at] = apron[1..].iter().all(|&d| d == apron[0]).then_some(apron[0]);
-        table.aprons[at] = apron;
+        match table.apron_pos[at] {
+            u16::MAX => {
+                // At most one apron an entry: this one reservation is all the vector needs.
+                if table.aprons.capacity() == 0 {
+                    table.aprons.reserve_exact(APRON_SLOTS);
+                }
+                table.apron_pos[at] = table.aprons.len() as u16;
+                table.aprons.push(apron);
+            }
+            pos => table.aprons[pos as usize] = apron,
+        }
         table.apron_keys[at] = key;
         // The entry may have held the current apron.
         self.apron_brick = [i64::MIN; 3];

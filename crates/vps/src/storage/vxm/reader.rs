@@ -291,12 +291,13 @@ impl VoxmapFile {
     }
 
     /// What brick `key` holds, with its distances in a version 2 file: as [`VoxmapFile::brick`]
-    /// with one decompression for both.
-    pub fn stored_brick(&self, key: u64) -> Result<BrickSlot<Box<StoredBrick>>, StorageError> {
+    /// with one decompression for both. Shared, as a cache keeps it: one allocation a brick
+    /// (a `Box` turned into an `Arc` made two, and copied the brick).
+    pub fn stored_brick(&self, key: u64) -> Result<BrickSlot<Arc<StoredBrick>>, StorageError> {
         let (index, runs) = self.tables()?;
         if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
             let (values, distances) = self.read_entry_full(i, &index[i])?;
-            return Ok(BrickSlot::Stored(Box::new(StoredBrick { values, distances })));
+            return Ok(BrickSlot::Stored(Arc::new(StoredBrick { values, distances })));
         }
         Ok(BrickSlot::Tile(self.tile_value(runs, key)))
     }
