@@ -53,8 +53,6 @@ pub(crate) struct PyStep {
     kinetic_energy: f64,
     /// Energy in the coupling's springs after the step.
     coupling_energy: f64,
-    /// Energy the step took away to stay passive; 0 for nearly every step (`docs/HAPTICS.md`).
-    damped_energy: f64,
     /// Wall time of the step, microseconds.
     micros: f64,
 }
@@ -73,7 +71,6 @@ impl From<Step> for PyStep {
             queries: s.queries,
             kinetic_energy: s.kinetic_energy,
             coupling_energy: s.coupling_energy,
-            damped_energy: s.damped_energy,
             micros: s.micros,
         }
     }
@@ -113,7 +110,7 @@ impl PySimulation {
     /// The object at rest at `start_pose`. `mass` (its inertia is its shell's); `coupling`,
     /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
     /// mass, critically damped); `stiffness`, the contact's per point (default: the
-    /// coupling's; tested passive up to twice it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
+    /// coupling's; tested passive up to 10 times it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
     /// each step's motion (default: exact, the same on every run).
     #[new]
     #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]

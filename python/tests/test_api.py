@@ -186,12 +186,6 @@ def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_
         assert s.max_penetration <= 0.25 * SIZE + 1e-12
     assert any(s.limited for s in steps)
     assert steps[-1].device_force[0] < 0 and steps[-1].contact_force[0] < 0
-    # At the default contact stiffness no step needs the passivity controller; at 1000 times
-    # it, the object still stays on the near side.
-    assert all(s.damped_energy == 0.0 for s in steps)
-    stiff = vps.Simulation(wall, shell, device[0], stiffness=1000 * 40000.0)
-    for s in (stiff.step(p) for p in device):
-        assert s.pose[0] + 0.5 < SIZE and s.damped_energy >= 0.0, s
     assert sim.pose == steps[-1].pose
     wall.write(tmp_path / "wall.vxm")
     shell.write(tmp_path / "ball.vps")

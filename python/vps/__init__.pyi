@@ -133,7 +133,6 @@ class SimulationStep:
     queries: int
     kinetic_energy: float
     coupling_energy: float
-    damped_energy: float
     micros: float
 
 class Simulation:

