@@ -113,7 +113,11 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
         "1e9",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("tested passive only up to 10 times"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("tested passive only up to 10 times"),
+        "{}",
+        stderr(&o)
+    );
 
     // The table form.
     let o = vps(&["simulate", p(&vxm), p(&vps_path), "--device", p(&device)]);

@@ -108,7 +108,8 @@ struct Table {
     /// Where each entry's apron lies in `aprons`; `u16::MAX` until the entry first holds one.
     apron_pos: [u16; APRON_SLOTS],
     /// The aprons, in the order their entries first needed one: room for every entry is
-    /// reserved on the first interpolation, but only the aprons built are written, so a query
+    /// reserved with the first apron that holds more than one distance, but only the aprons
+    /// built are written, so a query
     /// touching a few hundred bricks does not zero 0.7 MiB first (measured on the cold query,
     /// `docs/PERFORMANCE.md`).
     aprons: Vec<Apron>,
