@@ -109,9 +109,8 @@ struct Table {
     apron_pos: [u16; APRON_SLOTS],
     /// The aprons, in the order their entries first needed one: room for every entry is
     /// reserved with the first apron that holds more than one distance, but only the aprons
-    /// built are written, so a query
-    /// touching a few hundred bricks does not zero 0.7 MiB first (measured on the cold query,
-    /// `docs/PERFORMANCE.md`).
+    /// built are written, so a query touching a few hundred bricks does not zero 0.7 MiB
+    /// first (measured on the cold query, `docs/PERFORMANCE.md`).
     aprons: Vec<Apron>,
 }
 
