@@ -24,6 +24,8 @@ pub(crate) struct PyContact {
     points_tested: u64,
     /// Largest penetration of a tested point, in world units.
     max_penetration: f64,
+    /// Index of the first point that deep in the pointshell's `points`; `None` without contact.
+    deepest_point: Option<u32>,
     /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth `d`.
     energy: f64,
     /// False when a time budget ran out and some tree nodes stand for their points.
@@ -115,6 +117,7 @@ pub(crate) fn contact(
         points_in_contact: c.points_in_contact,
         points_tested: c.points_tested,
         max_penetration: c.max_penetration,
+        deepest_point: c.deepest_point,
         energy: c.energy,
         complete: c.complete,
         force_error_bound: c.force_error_bound,

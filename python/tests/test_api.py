@@ -137,6 +137,9 @@ def test_contact_of_a_ball_pressed_into_a_box_pushes_it_out(tmp_path, run_vps):
     assert touching == c.points_in_contact > 0
     assert force[2] > 0 and abs(force[0]) < 0.2 * force[2] and abs(force[1]) < 0.2 * force[2]
     assert c.complete and c.max_penetration > 0
+    # The deepest point is on the ball's bottom, about as deep as the ball is pressed in.
+    lowest = shell.points[c.deepest_point]
+    assert lowest[2] < -0.45 and c.max_penetration == pytest.approx(0.3, abs=2 * SIZE)
     # The springs' energy, Σ ½·K·d² over the points pushing: positive, and linear in K.
     assert c.energy > 0
     assert vps.contact(wall, shell, pose, stiffness=2.0).energy == pytest.approx(2 * c.energy, rel=1e-12)

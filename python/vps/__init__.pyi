@@ -112,6 +112,8 @@ class Contact:
     points_in_contact: int
     points_tested: int
     max_penetration: float
+    deepest_point: Optional[int]
+    """Index in the pointshell's `points` of the first point `max_penetration` deep."""
     energy: float
     complete: bool
     force_error_bound: float

@@ -284,7 +284,7 @@ fn spheres_far_beyond_the_layers_are_culled_by_the_stored_bricks() {
 
 /// A shell far inside a large box, then straddling its top face: the nodes whose voxels are
 /// all far-inside tiles add their points without look-ups, and the sums are the brute force's,
-/// bit for bit. Deep inside, a few nodes stand for all the points: 31 here, against 281 when
+/// bit for bit, and the deepest point is the first of equals. Deep inside, a few nodes stand for all the points: 31 here, against 281 when
 /// walking down to where the layers alone prove them inside (measured with the shortcut off).
 #[test]
 fn far_inside_the_points_are_summed_without_look_ups() {
@@ -308,6 +308,8 @@ fn far_inside_the_points_are_summed_without_look_ups() {
         let walk = contact(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
         let brute = contact_brute_force(&p.voxmap, &p.shell, &pose, &ContactParams::default()).unwrap();
         assert_same(&walk, &brute, &format!("pose {t:?}"));
+        // Far inside, every point is equally deep: the first is the deepest.
+        common::contact::assert_deepest_point(&p.voxmap, &p.shell, &pose, &ContactParams::default(), &walk);
         if t[2] < 2.0 {
             assert_eq!(walk.points_in_contact, points, "pose {t:?}");
             assert!(walk.nodes_tested < 100, "pose {t:?}: {} nodes", walk.nodes_tested);

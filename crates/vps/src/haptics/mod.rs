@@ -25,7 +25,7 @@ pub mod trajectory;
 pub use cache::{CacheStats, CachedVoxmap, Cursor, Slot, VoxmapSource, DEFAULT_CACHE_BYTES};
 // The query takes a pose; callers name it here or as `vps::Pose`.
 pub use crate::geometry::{Pose, PoseError};
-pub use query::{contact, contact_brute_force, Contact, ContactParams, Penetration, BLOCK_POINTS};
+pub use query::{contact, contact_brute_force, point_penetration, Contact, ContactParams, Penetration, BLOCK_POINTS};
 pub use sweep::{sweep, Sweep, TooDeep};
 
 use crate::storage::StorageError;

@@ -121,6 +121,8 @@ pub struct Contact {
     pub nodes_culled: u64,
     /// Largest penetration of a tested point, in world units (0 without contact).
     pub max_penetration: f64,
+    /// Index in the pointshell of the first point that deep (`None` without contact).
+    pub deepest_point: Option<u32>,
     /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth
     /// `d` (`f = K·w·d` with the interpolated distance): the work it takes to press the object
     /// into this pose, which the haptic loop's energy balance needs.
@@ -147,6 +149,10 @@ impl Contact {
         self.points_tested += o.points_tested;
         self.nodes_tested += o.nodes_tested;
         self.nodes_culled += o.nodes_culled;
+        // Strictly deeper only: of equals the earlier part's point stays.
+        if o.max_penetration > self.max_penetration {
+            self.deepest_point = o.deepest_point;
+        }
         self.max_penetration = self.max_penetration.max(o.max_penetration);
         self.energy += o.energy;
         self.nodes_approximated += o.nodes_approximated;
@@ -636,6 +642,31 @@ pub fn contact<S: PointshellData + ?Sized>(
     acc.complete = acc.nodes_approximated == 0;
     acc.micros = start.elapsed().as_secs_f64() * 1e6;
     Ok(acc)
+}
+
+/// The penetration of point `index` of `shell` at `pose`, as [`contact`] measures it (the same
+/// operations, so the same bits; 0 when not in contact): one point's part of a query. The
+/// haptic loop proves a pose too deep with it, by the point deepest at the last pose
+/// ([`Contact::deepest_point`]).
+pub fn point_penetration<S: PointshellData + ?Sized>(
+    voxmap: &CachedVoxmap,
+    shell: &S,
+    pose: &Pose,
+    params: &ContactParams,
+    index: u32,
+) -> Result<f64, HapticsError> {
+    let frame = Frame::new(voxmap, shell, pose, params)?;
+    let i = index as usize;
+    if i >= frame.points.len() {
+        return Err(HapticsError::Params(format!(
+            "point {i} of a pointshell of {} points",
+            frame.points.len()
+        )));
+    }
+    let mut cur = voxmap.cursor();
+    let (depth, _) = frame.point_depth(&mut cur, frame.points[i], frame.normals[i]);
+    cur.finish()?;
+    Ok(depth.max(0.0))
 }
 
 /// The reference: every point tested, no tree walk (the tree only cuts the points into the

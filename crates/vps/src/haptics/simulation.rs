@@ -23,7 +23,8 @@
 //!    distance reaches at least half a voxel inside (two voxel centres lie in it, their
 //!    distances adding up to at least one voxel), and changes by at most √3 per voxel moved,
 //!    so the part of the wall deeper than a quarter voxel is at least 0.29 voxels across and
-//!    no point can step over it.
+//!    no point can step over it. Pressed to the allowed depth, a sub-step that the last pose's
+//!    deepest point already finds too deep is not queried.
 //!    When stopped, the rest of the motion is tried once more with its part along the contact
 //!    force removed, so a blocked object still slides; and when that slide is blocked too,
 //!    pressed to the allowed depth, it is lifted off the face by a small slope, if the step
@@ -37,7 +38,7 @@ use std::time::{Duration, Instant};
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::{contact, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
+use super::{contact, point_penetration, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
 use crate::geometry::Pose;
 use crate::pointshell::PointshellData;
 
@@ -545,17 +546,23 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         if normal == DVec3::ZERO || reach == 0.0 {
             return Ok((None, 0));
         }
-        let Some(at_end) = self.checked(&self.moved(&from.pose, shift, turn, 1.0)?, deadline)? else {
-            return Ok((None, 1));
+        // The depth at the slide's end: known when the blocked slide found it too deep there,
+        // at the same pose (it made no progress, so `shift` and `turn` are its own).
+        let (at_end, mut queries) = match from.too_deep_at {
+            Some((end, depth)) if end == 1.0 && from.fraction == 0.0 => (depth, 0),
+            _ => match self.checked(&self.moved(&from.pose, shift, turn, 1.0)?, deadline)? {
+                Some(c) => (c.max_penetration, 1),
+                None => return Ok((None, 1)),
+            },
         };
-        let gain = at_end.max_penetration - from.contact.max_penetration;
+        let gain = at_end - from.contact.max_penetration;
         let lift = LIFT_PER_GAIN * gain;
         if gain <= 0.0 || lift > MAX_LIFT_SLOPE * reach {
-            return Ok((None, 1));
+            return Ok((None, queries));
         }
         let lifted_shift = shift + normal * lift;
         let lifted = self.advance_from(&from.pose, from.contact, lifted_shift, turn, deadline)?;
-        let mut queries = 1 + lifted.queries;
+        queries += lifted.queries;
         if lifted.fraction == 0.0 || lifted.out_of_time {
             return Ok((None, queries));
         }
@@ -637,6 +644,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             fraction: 0.0,
             queries: 0,
             out_of_time: false,
+            too_deep_at: None,
         };
         let mut known_too_deep = None;
         // Out of contact, the sweep starts at the first sub-step; in contact, that one is
@@ -683,6 +691,17 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 Some(depth) => depth,
                 None => {
                     let pose = at(hi)?;
+                    // Pressed to the allowed depth, no search would follow a pose too deep,
+                    // so its depth is not needed: when the deepest point of the last pose is
+                    // too deep at this one, so is the pose, and the query is saved.
+                    if done.contact.max_penetration >= CLOSE_ENOUGH * limit {
+                        if let Some(i) = done.contact.deepest_point {
+                            let p = point_penetration(self.voxmap, self.shell, &pose, &self.params.contact, i)?;
+                            if p > limit {
+                                return Ok(done);
+                            }
+                        }
+                    }
                     done.queries += 1;
                     let Some(c) = self.checked(&pose, deadline)? else {
                         done.out_of_time = true;
@@ -695,6 +714,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                     c.max_penetration
                 }
             };
+            done.too_deep_at = Some((hi * scale, too_deep));
             // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
             // within it, by false position (the depth is nearly linear along a sub-step), kept
             // off the bracket's ends so the bracket always shrinks; done once within the last
@@ -745,6 +765,8 @@ struct Advance {
     queries: u32,
     /// Whether the time budget stopped it.
     out_of_time: bool,
+    /// The first pose found too deep, as a fraction of the motion, and its depth.
+    too_deep_at: Option<(f64, f64)>,
 }
 
 /// A step's energy balance, as `tests/simulation.rs` checks passivity: the object's energy

@@ -6,7 +6,7 @@ use std::time::Duration;
 use glam::DVec3;
 use proptest::prelude::*;
 use vps::generate::signed_distance::signed_distances;
-use vps::haptics::contact_brute_force;
+use vps::haptics::{contact_brute_force, point_penetration};
 use vps::shapes;
 use vps::{
     contact, pointshell, voxelize, CachedVoxmap, Contact, ContactParams, Mesh, Pointshell, PointshellData, Pose,
@@ -49,6 +49,7 @@ pub fn assert_same(a: &Contact, b: &Contact, what: &str) {
     assert_eq!(a.torque, b.torque, "{what}: torque");
     assert_eq!(a.points_in_contact, b.points_in_contact, "{what}: points in contact");
     assert_eq!(a.max_penetration, b.max_penetration, "{what}: max penetration");
+    assert_eq!(a.deepest_point, b.deepest_point, "{what}: deepest point");
     assert_eq!(a.energy, b.energy, "{what}: energy");
 }
 
@@ -67,7 +68,25 @@ pub fn check_culled_walk<S: PointshellData + ?Sized>(
     assert_same(&fast, &slow, &format!("pose {}", pose.to_text()));
     prop_assert_eq!(slow.points_tested, shell.points().len() as u64);
     prop_assert!(fast.points_tested <= slow.points_tested);
+    assert_deepest_point(voxmap, shell, pose, &params, &fast);
     Ok(())
+}
+
+/// `c`'s deepest point is the first of the deepest, by every point's penetration in turn.
+pub fn assert_deepest_point<S: PointshellData + ?Sized>(
+    voxmap: &CachedVoxmap,
+    shell: &S,
+    pose: &Pose,
+    params: &ContactParams,
+    c: &Contact,
+) {
+    let depths: Vec<f64> = (0..shell.points().len() as u32)
+        .map(|i| point_penetration(voxmap, shell, pose, params, i).unwrap())
+        .collect();
+    let deepest = depths.iter().copied().fold(0.0, f64::max);
+    assert_eq!(c.max_penetration, deepest, "pose {}", pose.to_text());
+    let first = depths.iter().position(|&d| d == deepest && d > 0.0).map(|i| i as u32);
+    assert_eq!(c.deepest_point, first, "pose {}", pose.to_text());
 }
 
 /// Out of a budget of `budget_us`, the answer is within the bound it reports of the exact one.

@@ -19,28 +19,46 @@ struct Sums {
     torque: DVec3,
     touching: u64,
     deepest: f64,
+    /// The first point as deep as `deepest`, when it is in contact.
+    deepest_at: Option<u32>,
     energy: f64,
+    /// Index in the pointshell of the first point summed: points are counted from it.
+    first: usize,
 }
 
 impl Sums {
+    /// Sums that go on from `acc`, over points from index `first` on.
     #[inline(always)]
-    fn of(acc: &Contact) -> Sums {
+    fn of(acc: &Contact, first: usize) -> Sums {
         Sums {
             force: acc.force,
             torque: acc.torque,
             touching: 0,
             deepest: acc.max_penetration,
+            deepest_at: acc.deepest_point,
             energy: acc.energy,
+            first,
         }
     }
 
-    /// A point at `p` of normal `n` (the pointshell's frame) pushing with `f`, `d` deep.
+    /// Point `index` (from `first`) at `p` of normal `n` (the pointshell's frame) pushing with
+    /// `f`, `d` deep.
     #[inline(always)]
-    fn add(&mut self, p: Vec3, n: DVec3, f: f64, d: f64) {
+    fn add(&mut self, index: usize, p: Vec3, n: DVec3, f: f64, d: f64) {
         self.force += n * f;
         self.torque += p.as_dvec3().cross(n) * f;
-        self.deepest = self.deepest.max(d);
+        self.deeper(index, d);
         self.energy += f * d;
+    }
+
+    /// Point `index` (from `first`), `d` deep, may be the new deepest: only when strictly
+    /// deeper, so the first of equals stays, in any walk that adds points in index order.
+    #[inline(always)]
+    fn deeper(&mut self, index: usize, d: f64) {
+        if d > self.deepest {
+            self.deepest = d;
+            self.deepest_at = Some((self.first + index) as u32);
+        }
     }
 
     #[inline(always)]
@@ -49,6 +67,7 @@ impl Sums {
         acc.torque = self.torque;
         acc.points_in_contact += self.touching;
         acc.max_penetration = self.deepest;
+        acc.deepest_point = self.deepest_at;
         acc.energy = self.energy;
     }
 }
@@ -66,12 +85,12 @@ impl Frame<'_> {
         let points = &self.points[range.clone()];
         let normals = &self.normals[range.clone()];
         if self.distance {
-            let mut sums = Sums::of(acc);
+            let mut sums = Sums::of(acc, range.start);
             let weights = &self.weights[range];
             distance_batches(self, Some(cur), points, normals, weights, 0.0, &mut sums);
             sums.store(acc);
         } else {
-            self.test_points_layers(cur, points, normals, acc);
+            self.test_points_layers(cur, range.start, points, normals, acc);
         }
     }
 
@@ -82,7 +101,7 @@ impl Frame<'_> {
     pub(super) fn test_points_deep(&self, range: Range<usize>, acc: &mut Contact) {
         acc.points_tested += range.len() as u64;
         let deep = far_distance(self.layers as u8, 1) as f64 * DISTANCE_STEP;
-        let mut sums = Sums::of(acc);
+        let mut sums = Sums::of(acc, range.start);
         distance_batches(
             self,
             None,
@@ -97,9 +116,16 @@ impl Frame<'_> {
 
     /// [`Frame::test_points`] with the paper's layers.
     #[inline]
-    fn test_points_layers(&self, cur: &mut Cursor<'_>, points: &[Vec3], normals: &[Vec3], acc: &mut Contact) {
-        let mut sums = Sums::of(acc);
-        for (ps, ns) in points.chunks(BATCH).zip(normals.chunks(BATCH)) {
+    fn test_points_layers(
+        &self,
+        cur: &mut Cursor<'_>,
+        first: usize,
+        points: &[Vec3],
+        normals: &[Vec3],
+        acc: &mut Contact,
+    ) {
+        let mut sums = Sums::of(acc, first);
+        for (b, (ps, ns)) in points.chunks(BATCH).zip(normals.chunks(BATCH)).enumerate() {
             let mut u = [DVec3::ZERO; BATCH];
             for (u, p) in u.iter_mut().zip(ps) {
                 *u = self.units(*p);
@@ -119,7 +145,7 @@ impl Frame<'_> {
                 let n = n.as_dvec3();
                 let d = self.penetration(value, v, u[k], self.rot * n);
                 if d > 0.0 {
-                    sums.add(*p, n, d, d);
+                    sums.add(b * BATCH + k, *p, n, d, d);
                 }
             }
         }
@@ -151,7 +177,7 @@ fn distance_batches(
         .chunks(BATCH)
         .zip(normals.chunks(BATCH))
         .zip(weights.chunks(BATCH));
-    for ((ps, ns), ws) in batches {
+    for (b, ((ps, ns), ws)) in batches.enumerate() {
         let len = ps.len();
         let (mut p, mut n, mut w) = ([[0.0f32; BATCH]; 3], [[0.0f32; BATCH]; 3], [0.0f32; BATCH]);
         for k in 0..len {
@@ -214,13 +240,18 @@ fn distance_batches(
         }
         // The deepest point, by halving: `max` is exact, so the order is free, and one chain
         // through the running maximum cost more than the sums (d ≤ 0 leaves it as it is).
+        // Only a batch deeper than all before it is searched for its first deepest point.
+        let mut m = d;
         let mut half = BATCH;
         while half > 1 {
             half /= 2;
             for k in 0..half {
-                d[k] = d[k].max(d[k + half]);
+                m[k] = m[k].max(m[k + half]);
             }
         }
-        sums.deepest = sums.deepest.max(d[0]);
+        if m[0] > sums.deepest {
+            let k = d.iter().position(|&d| d == m[0]).unwrap_or(0);
+            sums.deeper(b * BATCH + k, m[0]);
+        }
     }
 }
