@@ -24,7 +24,8 @@ pub(crate) struct PyContact {
     points_tested: u64,
     /// Largest penetration of a tested point, in world units.
     max_penetration: f64,
-    /// Index of the first point that deep in the pointshell's `points`; `None` without contact.
+    /// Index in the pointshell's `points` of a point that deep (of equals the lowest, in an
+    /// exact query); `None` when no tested point has a positive penetration.
     deepest_point: Option<u32>,
     /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth `d`.
     energy: f64,

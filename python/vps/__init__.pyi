@@ -113,7 +113,8 @@ class Contact:
     points_tested: int
     max_penetration: float
     deepest_point: Optional[int]
-    """Index in the pointshell's `points` of the first point `max_penetration` deep."""
+    """Index in the pointshell's `points` of a point `max_penetration` deep (of equals the
+    lowest, in an exact query); None when no tested point has a positive penetration."""
     energy: float
     complete: bool
     force_error_bound: float

@@ -70,6 +70,8 @@ typedef struct vps_contact_result {
     double torque_error_bound;    /* upper bound on |torque - exact torque| (0 when complete) */
     int32_t complete;             /* 1: every point tested (always without a budget); 0: budget ran out */
     int32_t reserved;             /* always 0 */
+    double energy;                /* energy in the contact's springs: sum of f*d/2 */
+    int64_t deepest_point;        /* a point max_penetration deep (docs/C_ABI.md); -1 if none is > 0 */
 } vps_contact_result;
 
 /*
@@ -178,7 +180,12 @@ int vps_simulation_step(vps_simulation *simulation, const double device_pose[7],
 /* Free a simulation. NULL is a no-op. */
 void vps_simulation_free(vps_simulation *simulation);
 
-/* The library's version, e.g. "0.1.0": a static string, never to be freed. */
+/* The version of the library this header belongs to. The structs' sizes can change between
+ * versions (0.2.0 grew vps_contact_result): a caller compares it with vps_version() at
+ * start-up, and does not go on when they differ. */
+#define VPS_VERSION "0.2.0"
+
+/* The library's version, e.g. "0.2.0": a static string, never to be freed. */
 const char *vps_version(void);
 
 #ifdef __cplusplus

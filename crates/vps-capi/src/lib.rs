@@ -108,6 +108,11 @@ pub struct VpsContactResult {
     pub complete: i32,
     /// Always 0 (explicit padding, so the struct has no uninitialised bytes).
     pub reserved: i32,
+    /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth `d`.
+    pub energy: c_double,
+    /// Index in the pointshell of a point `max_penetration` deep (see `Contact::deepest_point`);
+    /// −1 when no tested point has a positive penetration.
+    pub deepest_point: i64,
 }
 
 impl From<&vps::haptics::Contact> for VpsContactResult {
@@ -127,6 +132,8 @@ impl From<&vps::haptics::Contact> for VpsContactResult {
             torque_error_bound: c.torque_error_bound,
             complete: c.complete as i32,
             reserved: 0,
+            energy: c.energy,
+            deepest_point: c.deepest_point.map_or(-1, i64::from),
         }
     }
 }
@@ -421,7 +428,7 @@ fn contact_params(p: &VpsContactParams) -> Result<ContactParams, String> {
     })
 }
 
-/// The library's version, e.g. `"0.1.0"`: a static NUL-terminated string, never freed.
+/// The library's version, e.g. `"0.2.0"`: a static NUL-terminated string, never freed.
 #[no_mangle]
 pub extern "C" fn vps_version() -> *const c_char {
     const VERSION: &CStr = match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
@@ -447,7 +454,9 @@ mod tests {
         assert_eq!(offset_of!(VpsContactResult, torque_error_bound), 120);
         assert_eq!(offset_of!(VpsContactResult, complete), 128);
         assert_eq!(offset_of!(VpsContactResult, reserved), 132);
-        assert_eq!(size_of::<VpsContactResult>(), 136);
+        assert_eq!(offset_of!(VpsContactResult, energy), 136);
+        assert_eq!(offset_of!(VpsContactResult, deepest_point), 144);
+        assert_eq!(size_of::<VpsContactResult>(), 152);
         // And those of `vps_contact_params`.
         assert_eq!(offset_of!(VpsContactParams, budget_us), 8);
         assert_eq!(offset_of!(VpsContactParams, penetration), 16);

@@ -283,9 +283,10 @@ fn spheres_far_beyond_the_layers_are_culled_by_the_stored_bricks() {
 }
 
 /// A shell far inside a large box, then straddling its top face: the nodes whose voxels are
-/// all far-inside tiles add their points without look-ups, and the sums are the brute force's,
-/// bit for bit, and the deepest point is the first of equals. Deep inside, a few nodes stand for all the points: 31 here, against 281 when
-/// walking down to where the layers alone prove them inside (measured with the shortcut off).
+/// all far-inside tiles add their points without look-ups, the sums are the brute force's,
+/// bit for bit, and the deepest point is the first of equals. Deep inside, a few nodes stand
+/// for all the points: 31 here, against 281 when walking down to where the layers alone prove
+/// them inside (measured with the shortcut off).
 #[test]
 fn far_inside_the_points_are_summed_without_look_ups() {
     use common::contact::assert_same;

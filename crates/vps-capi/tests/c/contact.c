@@ -15,6 +15,7 @@
  * program through pipes):
  *
  *   ok fx fy fz tx ty tz points_in_contact points_tested nodes_tested nodes_culled max_penetration complete
+ *      energy deepest_point
  *
  * with the doubles printed as %.17g, which reads back to the same bits; or, when the query
  * fails, "error CODE MESSAGE" (and the exit status will be 1).
@@ -104,10 +105,11 @@ static int print(const query *q) {
         printf("error %d %s\n", q->code, q->err);
     } else {
         const vps_contact_result *c = &q->c;
-        printf("ok %.17g %.17g %.17g %.17g %.17g %.17g %llu %llu %llu %llu %.17g %d\n", c->force[0], c->force[1],
+        printf("ok %.17g %.17g %.17g %.17g %.17g %.17g %llu %llu %llu %llu %.17g %d %.17g %lld\n", c->force[0], c->force[1],
                c->force[2], c->torque[0], c->torque[1], c->torque[2], (unsigned long long)c->points_in_contact,
                (unsigned long long)c->points_tested, (unsigned long long)c->nodes_tested,
-               (unsigned long long)c->nodes_culled, c->max_penetration, (int)c->complete);
+               (unsigned long long)c->nodes_culled, c->max_penetration, (int)c->complete, c->energy,
+               (long long)c->deepest_point);
     }
     fflush(stdout);
     return q->code != VPS_OK;

@@ -42,14 +42,15 @@ int main(int argc, char **argv) {
     char err[256];
 
     /* What this header says, for the caller to compare with the library's side. */
-    printf("layout %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_contact_result),
+    printf("layout %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_contact_result),
            offsetof(vps_contact_result, force), offsetof(vps_contact_result, torque),
            offsetof(vps_contact_result, points_in_contact), offsetof(vps_contact_result, points_tested),
            offsetof(vps_contact_result, nodes_tested), offsetof(vps_contact_result, nodes_culled),
            offsetof(vps_contact_result, nodes_approximated), offsetof(vps_contact_result, points_approximated),
            offsetof(vps_contact_result, max_penetration), offsetof(vps_contact_result, micros),
            offsetof(vps_contact_result, force_error_bound), offsetof(vps_contact_result, torque_error_bound),
-           offsetof(vps_contact_result, complete), offsetof(vps_contact_result, reserved));
+           offsetof(vps_contact_result, complete), offsetof(vps_contact_result, reserved),
+           offsetof(vps_contact_result, energy), offsetof(vps_contact_result, deepest_point));
     printf("codes %d %d %d %d %d %d\n", VPS_OK, VPS_ERR_NULL, VPS_ERR_POSE, VPS_ERR_PARAM, VPS_ERR_STORAGE,
            VPS_ERR_INTERNAL);
     printf("params %zu %zu %zu %zu %zu %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
@@ -62,6 +63,7 @@ int main(int argc, char **argv) {
            offsetof(vps_simulation_step_result, contact_force), offsetof(vps_simulation_step_result, points_in_contact),
            offsetof(vps_simulation_step_result, queries), offsetof(vps_simulation_step_result, out_of_time));
     printf("version %s\n", vps_version());
+    printf("header_version %s\n", VPS_VERSION);
 
     /* Version. */
     const char *v = vps_version();

@@ -41,6 +41,8 @@ fn d_the_header_matches_the_rust_side() {
         offset_of!(VpsContactResult, torque_error_bound),
         offset_of!(VpsContactResult, complete),
         offset_of!(VpsContactResult, reserved),
+        offset_of!(VpsContactResult, energy),
+        offset_of!(VpsContactResult, deepest_point),
     ];
     assert_eq!(
         layout, rust_layout,
@@ -90,6 +92,8 @@ fn d_the_header_matches_the_rust_side() {
         ]
     );
     assert_eq!(line("version "), [env!("CARGO_PKG_VERSION")]);
+    // The header's version macro is the library's, so a caller's start-up check can pass.
+    assert_eq!(line("header_version "), [env!("CARGO_PKG_VERSION")]);
 
     // The header also compiles as C++ (extern "C"), when a C++ compiler is at hand.
     let cxx = std::env::var("CXX").unwrap_or_else(|_| "c++".to_string());

@@ -254,18 +254,21 @@ pub(crate) struct Answer {
     nodes_culled: u64,
     max_penetration: f64,
     complete: bool,
+    energy: f64,
+    deepest_point: i64,
 }
 
 impl PartialEq for Answer {
     /// Bitwise equality of the doubles: `-0.0 != 0.0` here.
     fn eq(&self, o: &Answer) -> bool {
         let bits = |a: &Answer| {
-            let mut b = [0u64; 7];
+            let mut b = [0u64; 8];
             for i in 0..3 {
                 b[i] = a.force[i].to_bits();
                 b[3 + i] = a.torque[i].to_bits();
             }
             b[6] = a.max_penetration.to_bits();
+            b[7] = a.energy.to_bits();
             b
         };
         bits(self) == bits(o)
@@ -275,12 +278,14 @@ impl PartialEq for Answer {
                 self.nodes_tested,
                 self.nodes_culled,
                 self.complete,
+                self.deepest_point,
             ) == (
                 o.points_in_contact,
                 o.points_tested,
                 o.nodes_tested,
                 o.nodes_culled,
                 o.complete,
+                o.deepest_point,
             )
     }
 }
@@ -296,6 +301,8 @@ impl From<&Contact> for Answer {
             nodes_culled: c.nodes_culled,
             max_penetration: c.max_penetration,
             complete: c.complete,
+            energy: c.energy,
+            deepest_point: c.deepest_point.map_or(-1, i64::from),
         }
     }
 }
@@ -323,7 +330,7 @@ pub(crate) fn parse_reply(line: &str) -> Reply {
         return Reply::Error(code.parse().unwrap(), msg.to_string());
     }
     let f: Vec<&str> = line.split(' ').collect();
-    assert!(f.len() == 13 && f[0] == "ok", "not an answer: {line:?}");
+    assert!(f.len() == 15 && f[0] == "ok", "not an answer: {line:?}");
     let d = |i: usize| -> f64 { f[i].parse().unwrap_or_else(|_| panic!("field {i} of {line:?}")) };
     let n = |i: usize| -> u64 { f[i].parse().unwrap_or_else(|_| panic!("field {i} of {line:?}")) };
     Reply::Ok(Answer {
@@ -339,6 +346,8 @@ pub(crate) fn parse_reply(line: &str) -> Reply {
             "0" => false,
             x => panic!("complete is {x:?} in {line:?}"),
         },
+        energy: d(13),
+        deepest_point: f[14].parse().unwrap_or_else(|_| panic!("field 14 of {line:?}")),
     })
 }
 

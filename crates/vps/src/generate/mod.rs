@@ -45,9 +45,6 @@ pub enum GenerateError {
     /// The run was stopped by its caller (Ctrl-C).
     #[error("cancelled")]
     Cancelled,
-    /// What was asked is not done on this path yet.
-    #[error("not supported: {0}")]
-    Unsupported(String),
     /// The memory limit is too small for this mesh and grid.
     #[error("memory limit too small: {what} needs about {} MiB, and the limit leaves {} MiB for it", need >> 20, limit >> 20)]
     MemoryLimit {

@@ -121,7 +121,8 @@ pub struct Contact {
     pub nodes_culled: u64,
     /// Largest penetration of a tested point, in world units (0 without contact).
     pub max_penetration: f64,
-    /// Index in the pointshell of the first point that deep (`None` without contact).
+    /// Index in the pointshell of a point that deep: of equals, the lowest in an exact query,
+    /// the first tested with a budget. `None` when no tested point has a positive penetration.
     pub deepest_point: Option<u32>,
     /// Energy in the contact's springs, `Σ ½·f·d` over the points pushing with `f` at depth
     /// `d` (`f = K·w·d` with the interpolated distance): the work it takes to press the object
@@ -645,7 +646,8 @@ pub fn contact<S: PointshellData + ?Sized>(
 }
 
 /// The penetration of point `index` of `shell` at `pose`, as [`contact`] measures it (the same
-/// operations, so the same bits; 0 when not in contact): one point's part of a query. The
+/// operations, so the same bits), clamped at 0 below: one point's part of an exact query
+/// (`params.budget` is not used). The
 /// haptic loop proves a pose too deep with it, by the point deepest at the last pose
 /// ([`Contact::deepest_point`]).
 pub fn point_penetration<S: PointshellData + ?Sized>(

@@ -693,7 +693,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                     let pose = at(hi)?;
                     // Pressed to the allowed depth, no search would follow a pose too deep,
                     // so its depth is not needed: when the deepest point of the last pose is
-                    // too deep at this one, so is the pose, and the query is saved.
+                    // too deep at this one, so is the pose, and the query is saved (its depth,
+                    // `too_deep_at`, is then not known).
                     if done.contact.max_penetration >= CLOSE_ENOUGH * limit {
                         if let Some(i) = done.contact.deepest_point {
                             let p = point_penetration(self.voxmap, self.shell, &pose, &self.params.contact, i)?;

@@ -197,11 +197,12 @@ fn predict(values: &BrickValues) -> [u8; BRICK_VOXELS] {
     out
 }
 
-/// Undo [`predict`]: a running sum along each row, started from the row's own prediction.
-/// Written per row, rather than through [`prediction`], because lookups run it on every
-/// brick they read.
-fn unpredict(residuals: &[u8; BRICK_VOXELS]) -> BrickValues {
-    let mut values = [0i8; BRICK_VOXELS];
+/// Undo [`predict`] (and the distances' prediction) from the residuals: a running sum along
+/// each row, started from the row's own prediction. Written per row, rather than through
+/// [`prediction`], because lookups run it on every brick they read (through [`prediction`],
+/// the distances took a quarter of a brick's decoding, measured).
+fn unpredict<T: WrappingSum>(residuals: &[T; BRICK_VOXELS]) -> [T; BRICK_VOXELS] {
+    let mut values = [T::default(); BRICK_VOXELS];
     for row in 0..BRICK_VOXELS / 8 {
         let start = row * 8;
         let mut acc = if row % 8 != 0 {
@@ -209,14 +210,33 @@ fn unpredict(residuals: &[u8; BRICK_VOXELS]) -> BrickValues {
         } else if row != 0 {
             values[start - 64]
         } else {
-            0
+            T::default()
         };
         for x in start..start + 8 {
-            acc = acc.wrapping_add(residuals[x] as i8);
+            acc = acc.plus(residuals[x]);
             values[x] = acc;
         }
     }
     values
+}
+
+/// The integers of a brick's values (`i8`) and distances (`i16`), summed wrapping.
+trait WrappingSum: Copy + Default {
+    fn plus(self, r: Self) -> Self;
+}
+
+impl WrappingSum for i8 {
+    #[inline(always)]
+    fn plus(self, r: i8) -> i8 {
+        self.wrapping_add(r)
+    }
+}
+
+impl WrappingSum for i16 {
+    #[inline(always)]
+    fn plus(self, r: i16) -> i16 {
+        self.wrapping_add(r)
+    }
 }
 
 /// The "previous voxel" prediction of entry `i` of a brick's values or distances from those
@@ -361,7 +381,7 @@ fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeEr
 
 /// The values of value residuals, checked within `[-(layers+1), layers+1]`.
 fn checked_values(residuals: &[u8; BRICK_VOXELS], layers: u8) -> Result<BrickValues, DecodeError> {
-    let values = unpredict(residuals);
+    let values = unpredict::<i8>(bytemuck::cast_ref(residuals));
     let limit = i8::try_from(layers as u16 + 1).unwrap_or(i8::MAX);
     // Checked without branches first, since almost every brick passes.
     if values.iter().fold(true, |ok, &v| ok & (-limit..=limit).contains(&v)) {
@@ -393,13 +413,16 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     decompress(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
     let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
     let values = checked_values(residuals, layers)?;
-    let mut d = [0i16; BRICK_VOXELS];
-    for i in 0..BRICK_VOXELS {
-        let r = raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8;
-        d[i] = prediction(&d, i).wrapping_add(unzigzag(r));
+    let mut r = [0i16; BRICK_VOXELS];
+    for (i, r) in r.iter_mut().enumerate() {
+        *r = unzigzag(raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8);
     }
+    let d = unpredict(&r);
     let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
-    if let Some(voxel) = d.iter().position(|&x| (x as i32).abs() > limit) {
+    // Checked without branches first, as the values are.
+    let beyond = |x: i16| (x as i32).abs() > limit;
+    if d.iter().fold(false, |any, &x| any | beyond(x)) {
+        let voxel = d.iter().position(|&x| beyond(x)).unwrap_or(0);
         return Err(DecodeError::Malformed(format!(
             "voxel {voxel} has distance {} steps, beyond the reach of {limit}",
             d[voxel]
@@ -463,7 +486,7 @@ mod tests {
         for (i, x) in v.iter_mut().enumerate() {
             *x = ((i * 37 % 255) as i32 - 127) as i8;
         }
-        assert_eq!(unpredict(&predict(&v)), v);
+        assert_eq!(unpredict::<i8>(bytemuck::cast_ref(&predict(&v))), v);
     }
 
     #[test]
