@@ -48,6 +48,11 @@ int main(int argc, char **argv) {
         fprintf(stderr, "usage: simulate VXM VPS POSES\n");
         return 2;
     }
+    /* The structs below are this header's: the library must be the same version. */
+    if (strcmp(vps_version(), VPS_VERSION) != 0) {
+        fprintf(stderr, "simulate: built against vps %s, running with %s\n", VPS_VERSION, vps_version());
+        return 2;
+    }
     FILE *in = fopen(argv[3], "r");
     if (!in) {
         fprintf(stderr, "simulate: cannot open %s\n", argv[3]);
