@@ -77,8 +77,11 @@ fn a_device_pushed_through_a_thin_wall_at_speed_leaves_the_object_on_the_near_si
     // At rest against the wall, the device 3.5 beyond the object's centre feels the spring.
     let pull = params.coupling.stiffness * (3.0 - sim.state().pose.translation.x);
     assert!(last.device_force.x < -0.9 * pull, "{:?}", last.device_force);
+    // Straight on, nearly: the ball's pointshell is symmetric only up to its sampling (its
+    // centre of mass lies 3.0·10⁻⁴ off its frame's origin, sideways), and the object comes to
+    // rest about that far off the axis (3.7·10⁻⁴ when measured: 1.1·10⁻⁴ of the pull).
     let across = DVec3::new(0.0, last.device_force.y, last.device_force.z).length();
-    assert!(across < 1e-4 * pull, "{:?}", last.device_force);
+    assert!(across < 2e-4 * pull, "{:?}", last.device_force);
     assert!(
         last.contact.force.x < 0.0,
         "the wall pushes back: {:?}",
@@ -342,6 +345,44 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
         "{one_query} of {limited} pressed steps took one query"
     );
     assert!(angle < 5.0, "the object is {angle}° round the ball from the device");
+}
+
+/// Where the shell's frame has its origin is the user's choice (a CAD part's is often far from
+/// the part), and must not change the motion: the pressed slide round the ball, with the
+/// ball's frame origin at its centre and 20 units away (its points and the device's poses moved
+/// to match), keeps the centre of mass on the same path, up to rounding (1.2·10⁻¹³ when
+/// measured). A stop and a slide that cut the spin about the contact torque at the frame's
+/// origin, instead of about the centre of mass, made the paths part by 2.7·10⁻⁴.
+#[test]
+fn the_motion_does_not_depend_on_where_the_frame_origin_is() {
+    let s = 0.1;
+    let big = static_voxmap(shapes::sphere(DVec3::ZERO, 3.0, 96, 192), s);
+    let ball = moving_shell(shapes::sphere(DVec3::ZERO, 0.5, 24, 48), 0.05);
+    let path = |offset: DVec3| -> Vec<DVec3> {
+        let mut shell = ball.clone();
+        shell.origin += offset;
+        let body = MassProperties::of_shell(&shell, 1.0);
+        let params = SimulationParams::for_body(&body);
+        let top = 3.5 + 0.01;
+        let start = DVec3::new(0.0, 0.0, top) - offset;
+        let mut sim = Simulation::new(&big, &shell, body, params, at(start.x, start.y, start.z)).unwrap();
+        (0..300)
+            .map(|i| {
+                let device = if i < 100 {
+                    DVec3::new(0.0, 0.0, top - 0.017 * i as f64)
+                } else {
+                    let turn = 0.02 * (i - 100) as f64 / top;
+                    DVec3::new(turn.sin(), 0.0, turn.cos()) * (top - 1.7)
+                } - offset;
+                let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
+                step.pose.transform_point(body.centre)
+            })
+            .collect()
+    };
+    let (near, far) = (path(DVec3::ZERO), path(DVec3::new(0.0, 20.0, 0.0)));
+    let apart = near.iter().zip(&far).map(|(a, b)| a.distance(*b)).fold(0.0, f64::max);
+    eprintln!("frame origin 20 away: the centre of mass at most {apart:.2e} off its path");
+    assert!(apart < 1e-7 * s, "the centre of mass left its path by {apart}");
 }
 
 /// The lowest z of `shell`'s points at `pose`.

@@ -345,6 +345,12 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         pose.transform_point(self.body.centre)
     }
 
+    /// The torque of `contact` (found at `pose`) about the centre of mass: a query gives it
+    /// about the pose's translation, the shell's frame origin, which may lie far from it.
+    fn contact_torque(&self, pose: &Pose, contact: &Contact) -> DVec3 {
+        contact.torque + (pose.translation - self.centre_at(pose)).cross(contact.force)
+    }
+
     /// The inertia tensor about the centre of mass in the world frame at `pose`.
     fn inertia_at(&self, pose: &Pose) -> DMat3 {
         let rot = pose.matrix();
@@ -389,7 +395,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let mut state = self.ending_at(&end.pose);
         if !end.out_of_time {
             state.velocity = not_into(state.velocity, end.contact.force);
-            state.angular_velocity = not_into(state.angular_velocity, end.contact.torque);
+            state.angular_velocity = not_into(state.angular_velocity, self.contact_torque(&end.pose, &end.contact));
         }
         state
     }
@@ -433,10 +439,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
 
         let s = self.state;
         let device_motion = (device_velocity, device_spin);
-        let centre = self.centre_at(&s.pose);
         let pull = self.coupling(&s, &device, device_motion);
-        // The contact torque is about the pose's translation; about the centre of mass:
-        let contact_torque = self.contact.torque + (s.pose.translation - centre).cross(self.contact.force);
+        let contact_torque = self.contact_torque(&s.pose, &self.contact);
         let force = pull.force + self.contact.force;
         let torque = pull.torque + contact_torque;
 
@@ -499,10 +503,10 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             return Ok(first);
         }
         // Blocked: slide. The rest of the motion, without its part along the contact force
-        // (the wall's normal there) and about the contact torque.
+        // (the wall's normal there) and about the contact torque (about the centre of mass).
         let rest = 1.0 - first.fraction;
         let shift = not_into(shift * rest, first.contact.force);
-        let turn = not_into(turn * rest, first.contact.torque);
+        let turn = not_into(turn * rest, self.contact_torque(&first.pose, &first.contact));
         let mut slid = self.advance_from(&first.pose, first.contact, shift, turn, deadline)?;
         if slid.fraction < 1.0 && !slid.out_of_time {
             let rest = 1.0 - slid.fraction;
