@@ -647,9 +647,8 @@ pub fn contact<S: PointshellData + ?Sized>(
 
 /// The penetration of point `index` of `shell` at `pose`, as [`contact`] measures it (the same
 /// operations, so the same bits), clamped at 0 below: one point's part of an exact query
-/// (`params.budget` is not used). The
-/// haptic loop proves a pose too deep with it, by the point deepest at the last pose
-/// ([`Contact::deepest_point`]).
+/// (`params.budget` is not used). The haptic loop proves a pose too deep with it, by the point
+/// deepest at the last pose ([`Contact::deepest_point`]).
 pub fn point_penetration<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
     shell: &S,
