@@ -329,8 +329,8 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
     assert!(limited > 100, "only {limited} steps at the limit: not pressed");
     assert!(stalled < 5, "{stalled} of 349 steps stalled");
     // A push on into the wall is proved too deep by the last deepest point, without a query,
-    // so most pressed steps run only their slide's (275 of 349 since the spin is cut about the centre of mass; two at least
-    // before).
+    // so most pressed steps run only their slide's (275 of 349 since the spin is cut about the
+    // centre of mass; two at least before).
     assert!(
         one_query > limited / 2,
         "{one_query} of {limited} pressed steps took one query"
