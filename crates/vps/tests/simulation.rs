@@ -329,10 +329,11 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
     assert!(limited > 100, "only {limited} steps at the limit: not pressed");
     assert!(stalled < 5, "{stalled} of 349 steps stalled");
     // A push on into the wall is proved too deep by the last deepest point, without a query,
-    // so most pressed steps run only their slide's (275 of 349 since the spin is cut about the
-    // centre of mass; two at least before).
+    // so most pressed steps run only their slide's; and a slide so proved blocked is lifted by
+    // that point's gain, unqueried (321 of 349 steps of one query; 275 when the lifted slide
+    // queried the blocked slide's end, two queries at least before either).
     assert!(
-        one_query > limited / 2,
+        one_query * 100 > limited * 85,
         "{one_query} of {limited} pressed steps took one query"
     );
     assert!(angle < 5.0, "the object is {angle}° round the ball from the device");

@@ -551,25 +551,40 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             return Ok((None, 0));
         }
         // The depth at the slide's end: known when the blocked slide found it too deep there,
-        // at the same pose (it made no progress, so `shift` and `turn` are its own).
-        let (at_end, mut queries) = match from.too_deep_at {
-            Some((end, depth)) if end == 1.0 && from.fraction == 0.0 => (depth, 0),
-            _ => match self.checked(&self.moved(&from.pose, shift, turn, 1.0)?, deadline)? {
-                Some(c) => (c.max_penetration, 1),
+        // at the same pose (it made no progress, so `shift` and `turn` are its own). When the
+        // pressed point alone proved that, the gain is first taken as that point's, the one at
+        // the allowed depth, and the pose is queried only if that lift leaves the slide
+        // blocked (the pressed slide's steps of three queries were the 10⁵-point run's tail).
+        let end_pose = self.moved(&from.pose, shift, turn, 1.0)?;
+        let (mut at_end, mut queries) = match from.too_deep_at {
+            Some(t) if t.fraction == 1.0 && from.fraction == 0.0 => (t, 0),
+            _ => match self.checked(&end_pose, deadline)? {
+                Some(c) => (TooDeep::queried(1.0, c.max_penetration), 1),
                 None => return Ok((None, 1)),
             },
         };
-        let gain = at_end - from.contact.max_penetration;
-        let lift = LIFT_PER_GAIN * gain;
-        if gain <= 0.0 || lift > MAX_LIFT_SLOPE * reach {
-            return Ok((None, queries));
-        }
-        let lifted_shift = shift + normal * lift;
-        let lifted = self.advance_from(&from.pose, from.contact, lifted_shift, turn, deadline)?;
-        queries += lifted.queries;
-        if lifted.fraction == 0.0 || lifted.out_of_time {
-            return Ok((None, queries));
-        }
+        let (lifted_shift, lifted) = loop {
+            let gain = at_end.depth - from.contact.max_penetration;
+            let lift = LIFT_PER_GAIN * gain;
+            if gain <= 0.0 || lift > MAX_LIFT_SLOPE * reach {
+                return Ok((None, queries));
+            }
+            let lifted_shift = shift + normal * lift;
+            let lifted = self.advance_from(&from.pose, from.contact, lifted_shift, turn, deadline)?;
+            queries += lifted.queries;
+            if lifted.fraction == 0.0 && !lifted.out_of_time && !at_end.queried {
+                match self.checked(&end_pose, deadline)? {
+                    Some(c) => at_end = TooDeep::queried(1.0, c.max_penetration),
+                    None => return Ok((None, queries + 1)),
+                }
+                queries += 1;
+                continue;
+            }
+            if lifted.fraction == 0.0 || lifted.out_of_time {
+                return Ok((None, queries));
+            }
+            break (lifted_shift, lifted);
+        };
         let excess = ledger.excess(self, &lifted);
         if excess <= 0.0 {
             return Ok((Some(lifted), queries));
@@ -697,12 +712,17 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                     let pose = at(hi)?;
                     // Pressed to the allowed depth, no search would follow a pose too deep,
                     // so its depth is not needed: when the deepest point of the last pose is
-                    // too deep at this one, so is the pose, and the query is saved (its depth,
-                    // `too_deep_at`, is then not known).
+                    // too deep at this one, so is the pose, and the query is saved (`too_deep_at`
+                    // then holds that point's depth, a lower bound of the pose's).
                     if done.contact.max_penetration >= CLOSE_ENOUGH * limit {
                         if let Some(i) = done.contact.deepest_point {
                             let p = point_penetration(self.voxmap, self.shell, &pose, &self.params.contact, i)?;
                             if p > limit {
+                                done.too_deep_at = Some(TooDeep {
+                                    fraction: hi * scale,
+                                    depth: p,
+                                    queried: false,
+                                });
                                 return Ok(done);
                             }
                         }
@@ -719,7 +739,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                     c.max_penetration
                 }
             };
-            done.too_deep_at = Some((hi * scale, too_deep));
+            done.too_deep_at = Some(TooDeep::queried(hi * scale, too_deep));
             // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
             // within it, by false position (the depth is nearly linear along a sub-step), kept
             // off the bracket's ends so the bracket always shrinks; done once within the last
@@ -770,8 +790,29 @@ struct Advance {
     queries: u32,
     /// Whether the time budget stopped it.
     out_of_time: bool,
-    /// The first pose found too deep, as a fraction of the motion, and its depth.
-    too_deep_at: Option<(f64, f64)>,
+    /// The first pose found too deep.
+    too_deep_at: Option<TooDeep>,
+}
+
+/// A pose of an advancement found too deep.
+#[derive(Clone, Copy, Debug)]
+struct TooDeep {
+    /// Where, as a fraction of the motion.
+    fraction: f64,
+    /// How deep: the pose's depth when `queried`, else the depth of the point that proved it
+    /// too deep (a lower bound of the pose's).
+    depth: f64,
+    queried: bool,
+}
+
+impl TooDeep {
+    fn queried(fraction: f64, depth: f64) -> TooDeep {
+        TooDeep {
+            fraction,
+            depth,
+            queried: true,
+        }
+    }
 }
 
 /// A step's energy balance, as `tests/simulation.rs` checks passivity: the object's energy

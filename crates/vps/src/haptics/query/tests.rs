@@ -1,0 +1,124 @@
+//! The culling proof against its definition: a sphere [`Frame::classify_at`] finds outside
+//! holds no point in contact, at its rim too.
+
+use glam::DVec3;
+
+use super::{Class, ContactParams, Frame, Penetration};
+use crate::generate::signed_distance::signed_distances;
+use crate::haptics::CachedVoxmap;
+use crate::shapes::{cuboid, sphere, SplitMix};
+use crate::{pointshell, voxelize, Mesh, Pose, VoxelizeParams, LEAF_SIZE};
+
+/// A ball and a box whose faces lie on voxel faces, voxels of 0.1, 3 layers, with distances.
+fn voxmap() -> CachedVoxmap {
+    let mut tris = sphere(DVec3::new(-0.6, 0.0, 0.0), 0.75, 24, 48);
+    tris.extend(cuboid(DVec3::new(0.4, -0.5, -0.3), DVec3::new(1.2, 0.6, 0.5)));
+    let mesh = Mesh::from_triangles("static", tris).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.1, 3)).unwrap();
+    let distances = signed_distances(&mesh, &vm);
+    CachedVoxmap::in_memory(vm.with_distances(distances))
+}
+
+#[test]
+fn a_sphere_found_outside_holds_no_point_in_contact() {
+    let voxmap = voxmap();
+    let moving = Mesh::from_triangles("moving", sphere(DVec3::ZERO, 0.3, 8, 16)).unwrap();
+    let (vm, _) = voxelize(&moving, &VoxelizeParams::new(0.1, 2)).unwrap();
+    let shell = pointshell(&moving, &vm, LEAF_SIZE).unwrap().0;
+    let pose = Pose::new([0.0; 3], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let dims = voxmap.grid().dims.map(|d| d as f64);
+    for penetration in [Penetration::Distance, Penetration::Layers] {
+        let params = ContactParams {
+            penetration,
+            ..ContactParams::default()
+        };
+        let frame = Frame::new(&voxmap, &shell, &pose, &params).unwrap();
+        let mut cur = voxmap.cursor();
+        let mut rng = SplitMix(11);
+        let (mut outside, mut beyond_chessboard) = (0, 0);
+        for _ in 0..20_000 {
+            let u = DVec3::new(
+                rng.range(-2.0, dims[0] + 2.0),
+                rng.range(-2.0, dims[1] + 2.0),
+                rng.range(-2.0, dims[2] + 2.0),
+            );
+            let mut r = rng.range(0.0, 4.0);
+            if frame.classify_at(&mut cur, u, r).unwrap() != Class::Outside {
+                continue;
+            }
+            if rng.unit() < 0.5 {
+                // The hardest case: about the largest radius still culled, by bisection.
+                let mut hi = 16.0;
+                for _ in 0..40 {
+                    let mid = 0.5 * (r + hi);
+                    if frame.classify_at(&mut cur, u, mid).unwrap() == Class::Outside {
+                        r = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+            }
+            outside += 1;
+            // Culled although the old bound, `r < k − reach` with the chessboard layers
+            // alone, would have kept it: the centre's place in its voxel proved it.
+            if let Some((value, _)) = cur.in_grid(u) {
+                let k = -(value as i32);
+                beyond_chessboard += (r >= (k - frame.reach_voxels()) as f64) as u32;
+            }
+            // The rim along each axis and diagonal, where the proof is tight, and inside.
+            let mut probes: Vec<DVec3> = Vec::new();
+            for a in 0..3 {
+                for sign in [-1.0, 1.0] {
+                    let mut e = DVec3::ZERO;
+                    e[a] = sign;
+                    probes.push(u + e * r);
+                }
+            }
+            for corner in 0..8 {
+                let e = DVec3::new(
+                    if corner & 1 == 0 { -1.0 } else { 1.0 },
+                    if corner & 2 == 0 { -1.0 } else { 1.0 },
+                    if corner & 4 == 0 { -1.0 } else { 1.0 },
+                );
+                probes.push(u + e * (r / 3f64.sqrt()));
+            }
+            for _ in 0..8 {
+                let d = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                probes.push(u + d.normalize_or_zero() * r * rng.unit());
+            }
+            for p in probes {
+                if !cur.contains(p) {
+                    continue;
+                }
+                // What the proof claims: no voxel the point's penetration reads is ≥ 0 (its
+                // own with the layers, its cell's eight with distances); and so, with
+                // distances, that the blend is not positive.
+                let reads: Vec<DVec3> = match penetration {
+                    Penetration::Layers => vec![p],
+                    Penetration::Distance => {
+                        let lower = (p - 0.5).floor() + 0.5;
+                        (0..8)
+                            .map(|j| lower + DVec3::new((j & 1) as f64, ((j >> 1) & 1) as f64, (j >> 2) as f64))
+                            .collect()
+                    }
+                };
+                for q in reads {
+                    let value = cur.in_grid(q).map_or(-1, |(v, _)| v);
+                    assert!(
+                        value < 0,
+                        "{penetration:?}: the sphere at {u} of radius {r} was culled, but {p} reads a voxel of {value} at {q}"
+                    );
+                }
+                if penetration == Penetration::Distance {
+                    assert!(cur.distance_at(p) <= 0.0, "{p} in contact in a culled sphere");
+                }
+            }
+        }
+        cur.finish().unwrap();
+        assert!(outside > 2_000, "{penetration:?}: only {outside} spheres culled");
+        assert!(
+            beyond_chessboard > 200,
+            "{penetration:?}: only {beyond_chessboard} culled by the centre's place in its voxel"
+        );
+    }
+}
