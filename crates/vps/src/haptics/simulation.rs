@@ -559,7 +559,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let (mut at_end, mut queries) = match from.too_deep_at {
             Some(t) if t.fraction == 1.0 && from.fraction == 0.0 => (t, 0),
             _ => match self.checked(&end_pose, deadline)? {
-                Some(c) => (TooDeep::queried(1.0, c.max_penetration), 1),
+                Some(c) => (TooDeepPose::queried(1.0, c.max_penetration), 1),
                 None => return Ok((None, 1)),
             },
         };
@@ -574,7 +574,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             queries += lifted.queries;
             if lifted.fraction == 0.0 && !lifted.out_of_time && !at_end.queried {
                 match self.checked(&end_pose, deadline)? {
-                    Some(c) => at_end = TooDeep::queried(1.0, c.max_penetration),
+                    Some(c) => at_end = TooDeepPose::queried(1.0, c.max_penetration),
                     None => return Ok((None, queries + 1)),
                 }
                 queries += 1;
@@ -718,7 +718,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                         if let Some(i) = done.contact.deepest_point {
                             let p = point_penetration(self.voxmap, self.shell, &pose, &self.params.contact, i)?;
                             if p > limit {
-                                done.too_deep_at = Some(TooDeep {
+                                done.too_deep_at = Some(TooDeepPose {
                                     fraction: hi * scale,
                                     depth: p,
                                     queried: false,
@@ -739,7 +739,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                     c.max_penetration
                 }
             };
-            done.too_deep_at = Some(TooDeep::queried(hi * scale, too_deep));
+            done.too_deep_at = Some(TooDeepPose::queried(hi * scale, too_deep));
             // Too deep at `hi`, within the limit at `lo`: search between them for a pose just
             // within it, by false position (the depth is nearly linear along a sub-step), kept
             // off the bracket's ends so the bracket always shrinks; done once within the last
@@ -791,12 +791,12 @@ struct Advance {
     /// Whether the time budget stopped it.
     out_of_time: bool,
     /// The first pose found too deep.
-    too_deep_at: Option<TooDeep>,
+    too_deep_at: Option<TooDeepPose>,
 }
 
 /// A pose of an advancement found too deep.
 #[derive(Clone, Copy, Debug)]
-struct TooDeep {
+struct TooDeepPose {
     /// Where, as a fraction of the motion.
     fraction: f64,
     /// How deep: the pose's depth when `queried`, else the depth of the point that proved it
@@ -805,9 +805,9 @@ struct TooDeep {
     queried: bool,
 }
 
-impl TooDeep {
-    fn queried(fraction: f64, depth: f64) -> TooDeep {
-        TooDeep {
+impl TooDeepPose {
+    fn queried(fraction: f64, depth: f64) -> TooDeepPose {
+        TooDeepPose {
             fraction,
             depth,
             queried: true,
