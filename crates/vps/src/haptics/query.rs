@@ -371,12 +371,15 @@ impl<'a> Frame<'a> {
         };
         cur.check()?;
         let value = value as i32;
-        // An interpolated distance reads one voxel further (see `Cursor::distance_at`).
-        let reach = self.reach_voxels();
         if value < 0 && r < self.outside_radius(value, v, u) {
             Ok(Class::Outside)
-        } else if value < 0 && r < MAX_CLEAR_RADIUS && cur.in_tile() && cur.clear_around(v, r as u32 + reach as u32) {
-            // Beyond the layers: no stored brick within the sphere's reach, so every voxel
+        } else if value < 0
+            && r < MAX_CLEAR_RADIUS
+            && cur.in_tile()
+            && cur.clear_around(v, r as u32 + self.reach_voxels() as u32)
+        {
+            // Beyond the layers: no stored brick within the sphere's reach (one voxel more
+            // with distances, which read the eight around a point), so every voxel
             // there is far outside. (The centre's own brick is one of them: when it is stored,
             // the bit sets need not be asked.)
             Ok(Class::Outside)
@@ -391,8 +394,8 @@ impl<'a> Frame<'a> {
 
     /// The radius (voxels) under which a sphere centred at grid units `u`, in voxel `v` of
     /// value `value < 0`, holds no point in contact (see [`Frame::classify`]). The centre's
-    /// place in its voxel gains ½ to 1 voxel over the chessboard bound alone, `k − 2` with
-    /// distances: 11 % fewer nodes and points tested in a pressed query (`docs/HAPTICS.md`).
+    /// place in its voxel gains up to 1 voxel over the chessboard bound alone (`k − 2` with
+    /// distances, now `k − 1.5 + f`): 11 % fewer nodes and points tested in a pressed query (`docs/HAPTICS.md`).
     #[inline(always)]
     fn outside_radius(&self, value: i32, v: [u32; 3], u: DVec3) -> f64 {
         let f = u - DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);

@@ -555,6 +555,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         // pressed point alone proved that, the gain is first taken as that point's, the one at
         // the allowed depth, and the pose is queried only if that lift leaves the slide
         // blocked (the pressed slide's steps of three queries were the 10⁵-point run's tail).
+        // So a slide may be kept lifted by the point's gain where the pose's, larger, would
+        // have been too steep: it still made progress within the allowed depth.
         let end_pose = self.moved(&from.pose, shift, turn, 1.0)?;
         let (mut at_end, mut queries) = match from.too_deep_at {
             Some(t) if t.fraction == 1.0 && from.fraction == 0.0 => (t, 0),
@@ -566,24 +568,30 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let (lifted_shift, lifted) = loop {
             let gain = at_end.depth - from.contact.max_penetration;
             let lift = LIFT_PER_GAIN * gain;
-            if gain <= 0.0 || lift > MAX_LIFT_SLOPE * reach {
+            // Unqueried, the depth is a lower bound: a lift too steep for it is too steep for
+            // the pose's own depth too, but no gain from it proves nothing.
+            if lift > MAX_LIFT_SLOPE * reach || (gain <= 0.0 && at_end.queried) {
                 return Ok((None, queries));
             }
-            let lifted_shift = shift + normal * lift;
-            let lifted = self.advance_from(&from.pose, from.contact, lifted_shift, turn, deadline)?;
-            queries += lifted.queries;
-            if lifted.fraction == 0.0 && !lifted.out_of_time && !at_end.queried {
-                match self.checked(&end_pose, deadline)? {
-                    Some(c) => at_end = TooDeepPose::queried(1.0, c.max_penetration),
-                    None => return Ok((None, queries + 1)),
+            if gain > 0.0 {
+                let lifted_shift = shift + normal * lift;
+                let lifted = self.advance_from(&from.pose, from.contact, lifted_shift, turn, deadline)?;
+                queries += lifted.queries;
+                if lifted.fraction > 0.0 && !lifted.out_of_time {
+                    break (lifted_shift, lifted);
                 }
-                queries += 1;
-                continue;
+                if lifted.out_of_time || at_end.queried {
+                    return Ok((None, queries));
+                }
             }
-            if lifted.fraction == 0.0 || lifted.out_of_time {
-                return Ok((None, queries));
+            // The point's gain was not enough (or none): the pose's own, once, if it is more.
+            queries += 1;
+            match self.checked(&end_pose, deadline)? {
+                Some(c) if c.max_penetration > at_end.depth => {
+                    at_end = TooDeepPose::queried(1.0, c.max_penetration);
+                }
+                _ => return Ok((None, queries)),
             }
-            break (lifted_shift, lifted);
         };
         let excess = ledger.excess(self, &lifted);
         if excess <= 0.0 {
@@ -806,6 +814,7 @@ struct TooDeepPose {
 }
 
 impl TooDeepPose {
+    /// A pose's own depth, from a complete query (at a slide's end, perhaps within the limit).
     fn queried(fraction: f64, depth: f64) -> TooDeepPose {
         TooDeepPose {
             fraction,

@@ -439,6 +439,10 @@ mod tests {
             });
         }
         assert_eq!(parse("[[mesh]]\npath = \"/\"\n").unwrap().entries[0].name, "mesh1");
+        // Found by the fuzzer: an explicit empty name is an error on its line, not an empty name.
+        let (e, m) = err("[[mesh]]\npath = \"parts/wheel.obj\"\nname = \"\"\nscale = 25.4\n");
+        assert!(matches!(&e, SceneError::Invalid { at, .. } if at.line == 3), "{e:?}");
+        assert!(m.contains("`name` is empty"), "{m}");
         assert_eq!(parse("[[mesh]]\npath = \"é.obj.zst\"\n").unwrap().entries[0].name, "é");
         let long = "k".repeat(1000);
         let m = err(&format!("[[mesh]]\npath = \"a\"\n{long} = 1\n")).1;

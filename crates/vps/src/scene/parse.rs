@@ -184,6 +184,14 @@ fn parse_entry(
     if str_field("path").is_some_and(str::is_empty) || table.get("path").is_none() {
         return Err(SceneError::MissingPath { at: here(), entry });
     }
+    // An empty name would give objects named "/<object>"; leaving it out gives the default.
+    if let Some(name) = table.get("name").filter(|v| v.get_ref().as_str() == Some("")) {
+        return Err(SceneError::Invalid {
+            at: src.at(name.span().start),
+            entry: some_entry,
+            message: "`name` is empty: give a name or leave the field out (default: the file name)".to_string(),
+        });
+    }
     if let Some(rotation) = table.get("rotation") {
         check_rotation(src, rotation, &entry)?;
     }
