@@ -31,7 +31,7 @@ pub const BLOCK_POINTS: u32 = 2048;
 
 /// Below this many candidate points a query runs on the calling thread: waking the pool costs
 /// more than it saves.
-const PARALLEL_MIN_POINTS: u64 = 8192;
+pub(crate) const PARALLEL_MIN_POINTS: u64 = 8192;
 
 /// The time-critical walk checks the clock every this many nodes.
 const CLOCK_EVERY: usize = 16;
@@ -499,11 +499,12 @@ impl<'a> Frame<'a> {
         Ok(out)
     }
 
-    /// Sum `blocks` with `f`, in parallel when they hold enough points, adding the block sums
-    /// in block order.
+    /// Sum `blocks` with `f`, in parallel when they hold `parallel_min_points` or more, adding
+    /// the block sums in block order (so the same bits either way).
     fn sum_blocks(
         &self,
         blocks: &[usize],
+        parallel_min_points: u64,
         acc: &mut Contact,
         f: impl Fn(usize, &mut Contact) -> Result<(), StorageError> + Sync,
     ) -> Result<(), StorageError> {
@@ -512,7 +513,7 @@ impl<'a> Frame<'a> {
             let mut part = Contact::default();
             f(b, &mut part).map(|_| part)
         };
-        let parts: Vec<Contact> = if points >= PARALLEL_MIN_POINTS && blocks.len() > 1 {
+        let parts: Vec<Contact> = if points >= parallel_min_points && blocks.len() > 1 {
             blocks.par_iter().map(one).collect::<Result<_, _>>()?
         } else {
             blocks.iter().map(one).collect::<Result<_, _>>()?
@@ -650,13 +651,27 @@ pub fn contact<S: PointshellData + ?Sized>(
     pose: &Pose,
     params: &ContactParams,
 ) -> Result<Contact, HapticsError> {
+    contact_threaded(voxmap, shell, pose, params, PARALLEL_MIN_POINTS)
+}
+
+/// [`contact`], on the thread pool only when the blocks not culled hold `parallel_min_points`
+/// or more (the haptic loop decides by the points its last query tested).
+pub(crate) fn contact_threaded<S: PointshellData + ?Sized>(
+    voxmap: &CachedVoxmap,
+    shell: &S,
+    pose: &Pose,
+    params: &ContactParams,
+    parallel_min_points: u64,
+) -> Result<Contact, HapticsError> {
     let start = Instant::now();
     let frame = Frame::new(voxmap, shell, pose, params)?;
     let mut acc = Contact::default();
     match params.budget {
         None => {
             let blocks = frame.blocks(true, &mut acc)?;
-            frame.sum_blocks(&blocks, &mut acc, |b, part| frame.walk(b, true, part))?;
+            frame.sum_blocks(&blocks, parallel_min_points, &mut acc, |b, part| {
+                frame.walk(b, true, part)
+            })?;
         }
         // Plan to finish early: the slack absorbs what planning cannot see (the clock, page
         // faults, the last level's approximations).
@@ -705,7 +720,7 @@ pub fn contact_brute_force<S: PointshellData + ?Sized>(
     let frame = Frame::new(voxmap, shell, pose, params)?;
     let mut acc = Contact::default();
     let blocks = frame.blocks(false, &mut acc)?;
-    frame.sum_blocks(&blocks, &mut acc, |b, part| {
+    frame.sum_blocks(&blocks, PARALLEL_MIN_POINTS, &mut acc, |b, part| {
         let mut cur = voxmap.cursor();
         frame.test_points(&mut cur, frame.nodes[b].points(), part);
         cur.finish()

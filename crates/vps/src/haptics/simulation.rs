@@ -34,10 +34,12 @@
 //!
 //! `docs/HAPTICS.md` ("The haptic loop") states the defaults and what the tests show.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::query::{contact_threaded, PARALLEL_MIN_POINTS};
 use super::{contact, point_penetration, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
 use crate::geometry::Pose;
 use crate::pointshell::PointshellData;
@@ -256,6 +258,12 @@ const MAX_LIFT_SLOPE: f64 = 0.1;
 /// A lifted slide that would leave the step with more energy than passivity allows is tried
 /// once more shortened, if to no less than this fraction of it.
 const MIN_SHORTER_SLIDE: f64 = 0.5;
+/// A step's queries go to the thread pool only after a query that tested this many points or
+/// more. A pressed contact of the loop tests far fewer than a deep one (about 10,000 points of
+/// the built-in 10⁶-point shell, 2,200 of the 10⁵ one), and handing so little to the pool cost
+/// more in its tail than it saved: waking a busy core's thread can take a 4 ms scheduler tick
+/// (`docs/PERFORMANCE.md`, "The loop's queries on the calling thread").
+const LOOP_PARALLEL_MIN_TESTED: u64 = 16_384;
 
 /// A simulated rigid object held through a virtual coupling, in contact with a voxmap.
 pub struct Simulation<'a, S: PointshellData + ?Sized> {
@@ -272,6 +280,8 @@ pub struct Simulation<'a, S: PointshellData + ?Sized> {
     radius: f64,
     /// The voxmap's voxel size.
     voxel: f64,
+    /// Points the last query tested: whether the next may use the thread pool.
+    last_points_tested: AtomicU64,
 }
 
 impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
@@ -318,6 +328,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 velocity: DVec3::ZERO,
                 angular_velocity: DVec3::ZERO,
             },
+            last_points_tested: AtomicU64::new(contact.points_tested),
             contact,
             device_before: None,
             radius,
@@ -626,11 +637,21 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         Ok(Pose::new(translation.to_array(), q)?)
     }
 
+    /// The contact at `pose`: on the calling thread unless the last query was a large one
+    /// ([`LOOP_PARALLEL_MIN_TESTED`]). The same bits either way.
+    fn query(&self, pose: &Pose, params: &ContactParams) -> Result<Contact, HapticsError> {
+        let large = self.last_points_tested.load(Ordering::Relaxed) >= LOOP_PARALLEL_MIN_TESTED;
+        let parallel_min_points = if large { PARALLEL_MIN_POINTS } else { u64::MAX };
+        let c = contact_threaded(self.voxmap, self.shell, pose, params, parallel_min_points)?;
+        self.last_points_tested.store(c.points_tested, Ordering::Relaxed);
+        Ok(c)
+    }
+
     /// The contact at `pose`, or `None` when the time to `deadline` ran out before a complete
     /// answer (an incomplete one does not bound the deepest point).
     fn checked(&self, pose: &Pose, deadline: Option<Instant>) -> Result<Option<Contact>, HapticsError> {
         let Some(deadline) = deadline else {
-            return contact(self.voxmap, self.shell, pose, &self.params.contact).map(Some);
+            return self.query(pose, &self.params.contact).map(Some);
         };
         let left = deadline.saturating_duration_since(Instant::now());
         if left.is_zero() {
@@ -640,7 +661,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             budget: Some(left),
             ..self.params.contact
         };
-        let c = contact(self.voxmap, self.shell, pose, &params)?;
+        let c = self.query(pose, &params)?;
         Ok(c.complete.then_some(c))
     }
 
@@ -707,7 +728,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                         if stop.pose > 0 {
                             let pose = poses[stop.pose - 1];
                             done.queries += 1;
-                            let c = contact(self.voxmap, self.shell, &pose, &self.params.contact)?;
+                            let c = self.query(&pose, &self.params.contact)?;
                             (done.pose, done.contact, done.fraction) = (pose, c, (j - 1) as f64 / n as f64 * scale);
                         }
                     }

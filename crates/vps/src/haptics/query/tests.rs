@@ -7,7 +7,7 @@ use super::{Class, ContactParams, Frame, Penetration};
 use crate::generate::signed_distance::signed_distances;
 use crate::haptics::CachedVoxmap;
 use crate::shapes::{cuboid, sphere, SplitMix};
-use crate::{pointshell, voxelize, Mesh, Pose, VoxelizeParams, LEAF_SIZE};
+use crate::{pointshell, voxelize, Mesh, Pointshell, Pose, VoxelizeParams, LEAF_SIZE};
 
 /// The static map's layers.
 const LAYERS: i32 = 3;
@@ -23,12 +23,17 @@ fn voxmap() -> CachedVoxmap {
     CachedVoxmap::in_memory(vm.with_distances(distances))
 }
 
+/// The pointshell of a ball of `radius` about the origin, sampled at `voxel`.
+fn ball_shell(radius: f64, stacks: u32, voxel: f64) -> Pointshell {
+    let moving = Mesh::from_triangles("moving", sphere(DVec3::ZERO, radius, stacks, 2 * stacks)).unwrap();
+    let (vm, _) = voxelize(&moving, &VoxelizeParams::new(voxel, 2)).unwrap();
+    pointshell(&moving, &vm, LEAF_SIZE).unwrap().0
+}
+
 #[test]
 fn a_sphere_found_outside_holds_no_point_in_contact() {
     let voxmap = voxmap();
-    let moving = Mesh::from_triangles("moving", sphere(DVec3::ZERO, 0.3, 8, 16)).unwrap();
-    let (vm, _) = voxelize(&moving, &VoxelizeParams::new(0.1, 2)).unwrap();
-    let shell = pointshell(&moving, &vm, LEAF_SIZE).unwrap().0;
+    let shell = ball_shell(0.3, 8, 0.1);
     let pose = Pose::new([0.0; 3], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let dims = voxmap.grid().dims.map(|d| d as f64);
     for penetration in [Penetration::Distance, Penetration::Layers] {
@@ -126,4 +131,29 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
             "{penetration:?}: only {beyond_chessboard} culled by the centre's place in its voxel"
         );
     }
+}
+
+#[test]
+fn a_query_on_the_calling_thread_gives_the_pools_bits() {
+    // The haptic loop keeps small queries off the pool: the same sums in the same order.
+    let voxmap = voxmap();
+    let shell = ball_shell(0.6, 24, 0.02);
+    assert!(
+        shell.points.len() > 4 * super::BLOCK_POINTS as usize,
+        "{} points",
+        shell.points.len()
+    );
+    let mut rng = SplitMix(5);
+    let mut in_contact = 0;
+    for _ in 0..20 {
+        let t = [rng.range(-1.2, 1.4), rng.range(-0.8, 0.8), rng.range(-0.8, 0.8)];
+        let pose = Pose::new(t, [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let params = ContactParams::default();
+        let mut pool = super::contact_threaded(&voxmap, &shell, &pose, &params, 0).unwrap();
+        let mut here = super::contact_threaded(&voxmap, &shell, &pose, &params, u64::MAX).unwrap();
+        (pool.micros, here.micros) = (0.0, 0.0);
+        assert_eq!(pool, here, "at {t:?}");
+        in_contact += (here.points_in_contact > 0) as u32;
+    }
+    assert!(in_contact >= 5, "only {in_contact} poses in contact");
 }
