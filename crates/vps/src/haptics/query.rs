@@ -395,7 +395,8 @@ impl<'a> Frame<'a> {
     /// The radius (voxels) under which a sphere centred at grid units `u`, in voxel `v` of
     /// value `value < 0`, holds no point in contact (see [`Frame::classify`]). The centre's
     /// place in its voxel gains up to 1 voxel over the chessboard bound alone (`k − 2` with
-    /// distances, now `k − 1.5 + f`): 11 % fewer nodes and points tested in a pressed query (`docs/HAPTICS.md`).
+    /// distances, now `k − 1.5 + f`): 11 % fewer nodes and points tested in a pressed query
+    /// (`docs/HAPTICS.md`).
     #[inline(always)]
     fn outside_radius(&self, value: i32, v: [u32; 3], u: DVec3) -> f64 {
         let f = u - DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
