@@ -1,9 +1,10 @@
 //! `vps.Simulation`: the haptic loop, one `step(device_pose)` per device sample
 //! (docs/HAPTICS.md, "The haptic loop").
 
+use glam::{DMat3, DVec3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step};
 use vps::{CachedVoxmap, Pointshell, PointshellData, PointshellFile, Pose};
 
 use crate::contact::{penetration_of, pose_of};
@@ -53,6 +54,10 @@ pub(crate) struct PyStep {
     kinetic_energy: f64,
     /// Energy in the coupling's springs after the step.
     coupling_energy: f64,
+    /// The object's energy gain over the device's work in the step: at most 0 (rounding).
+    energy_gain: f64,
+    /// Energy taken out by slowing the object to keep the step passive.
+    energy_removed: f64,
     /// Wall time of the step, microseconds.
     micros: f64,
 }
@@ -71,6 +76,8 @@ impl From<Step> for PyStep {
             queries: s.queries,
             kinetic_energy: s.kinetic_energy,
             coupling_energy: s.coupling_energy,
+            energy_gain: s.energy_gain,
+            energy_removed: s.energy_removed,
             micros: s.micros,
         }
     }
@@ -93,13 +100,19 @@ fn start_on<S: PointshellData + ?Sized>(
     voxmap: &'static CachedVoxmap,
     shell: &'static S,
     mass: f64,
+    given: Option<(Option<DVec3>, DMat3)>,
     start: Pose,
     configure: impl FnOnce(&MassProperties) -> PyResult<SimulationParams>,
 ) -> PyResult<Simulation<'static, S>> {
     if shell.points().is_empty() {
         return Err(PyValueError::new_err("the pointshell has no points"));
     }
-    let body = MassProperties::of_shell(shell, mass);
+    let shell_body = MassProperties::of_shell(shell, mass);
+    let body = match given {
+        None => shell_body,
+        Some((centre, inertia)) => MassProperties::given(mass, centre.unwrap_or(shell_body.centre), inertia)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?,
+    };
     let params = configure(&body)?;
     py.detach(|| Simulation::new(voxmap, shell, body, params, start))
         .or_raise()
@@ -107,13 +120,16 @@ fn start_on<S: PointshellData + ?Sized>(
 
 #[pymethods]
 impl PySimulation {
-    /// The object at rest at `start_pose`. `mass` (its inertia is its shell's); `coupling`,
+    /// The object at rest at `start_pose`. `mass`; `inertia`, its tensor about the centre of
+    /// mass in the shell's frame, 3, 6 or 9 numbers (`Ixx, Iyy, Izz`, then `Ixy, Ixz, Iyz`, or
+    /// the matrix row by row; default: the shell's over its points); `centre_of_mass` (only
+    /// with `inertia`; default: the shell's); `coupling`,
     /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
     /// mass, critically damped); `stiffness`, the contact's per point (default: the
     /// coupling's; tested passive up to 10 times it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
     /// each step's motion (default: exact, the same on every run).
     #[new]
-    #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]
+    #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, inertia = None, centre_of_mass = None, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -121,6 +137,8 @@ impl PySimulation {
         shell: Py<PyPointshell>,
         start_pose: Vec<f64>,
         mass: f64,
+        inertia: Option<Vec<f64>>,
+        centre_of_mass: Option<[f64; 3]>,
         coupling: Option<(f64, f64)>,
         stiffness: Option<f64>,
         max_penetration: f64,
@@ -138,6 +156,14 @@ impl PySimulation {
         if !(mass.is_finite() && mass > 0.0) {
             return Err(PyValueError::new_err(format!("mass must be > 0, got {mass}")));
         }
+        let given = match (inertia, centre_of_mass) {
+            (None, None) => None,
+            (None, Some(_)) => return Err(PyValueError::new_err("centre_of_mass needs inertia")),
+            (Some(i), centre) => Some((
+                centre.map(DVec3::from_array),
+                inertia_tensor(&i).map_err(|e| PyValueError::new_err(e.to_string()))?,
+            )),
+        };
         // SAFETY: both classes are frozen, so `get` gives a shared reference to data that
         // never moves (it lives in the Python object) and never changes. The references are
         // given the simulation's life: `sim` is dropped before the two `Py` fields that keep
@@ -167,8 +193,8 @@ impl PySimulation {
             Ok(params)
         };
         let sim = match &sh.data {
-            ShellData::Memory(m) => Sim::Memory(start_on(py, &vm.data, m, mass, start, configure)?),
-            ShellData::File(f) => Sim::File(start_on(py, &vm.data, f, mass, start, configure)?),
+            ShellData::Memory(m) => Sim::Memory(start_on(py, &vm.data, m, mass, given, start, configure)?),
+            ShellData::File(f) => Sim::File(start_on(py, &vm.data, f, mass, given, start, configure)?),
         };
         Ok(PySimulation {
             sim,

@@ -188,6 +188,9 @@ def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_
         assert deepest < SIZE, s
         assert s.max_penetration <= 0.25 * SIZE + 1e-12
     assert any(s.limited for s in steps)
+    # Passive: no step ends with more energy than it began with plus the device's work.
+    assert all(s.energy_gain <= 1e-9 * max(1.0, s.kinetic_energy + s.coupling_energy) for s in steps)
+    assert all(s.energy_removed >= 0.0 for s in steps)
     assert steps[-1].device_force[0] < 0 and steps[-1].contact_force[0] < 0
     assert sim.pose == steps[-1].pose
     wall.write(tmp_path / "wall.vxm")
@@ -204,6 +207,16 @@ def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_
         vps.Simulation(wall, shell, device[0], budget_seconds=-1.0)
     with pytest.raises(ValueError, match="mass"):
         vps.Simulation(wall, shell, device[0], mass=0.0)
+    # Given mass properties: accepted as 3, 6 or 9 numbers, checked.
+    heavy = vps.Simulation(wall, shell, device[0], mass=2.0, inertia=[0.3, 0.3, 0.3], centre_of_mass=[0.0, 0.0, 0.0])
+    full = vps.Simulation(wall, shell, device[0], mass=2.0, inertia=np.diag([0.3, 0.3, 0.3]).ravel(), centre_of_mass=(0, 0, 0))
+    assert [heavy.step(p).device_force for p in device[:20]] == [full.step(p).device_force for p in device[:20]]
+    with pytest.raises(ValueError, match="positive definite"):
+        vps.Simulation(wall, shell, device[0], inertia=[1.0, 1.0, -1.0])
+    with pytest.raises(ValueError, match="3, 6 or 9"):
+        vps.Simulation(wall, shell, device[0], inertia=[1.0, 1.0])
+    with pytest.raises(ValueError, match="needs inertia"):
+        vps.Simulation(wall, shell, device[0], centre_of_mass=[0.0, 0.0, 0.0])
     with pytest.raises(vps.HapticsError, match="deep"):
         vps.Simulation(wall, shell, (0.1, 0.0, 0.0))  # starts inside the wall
 

@@ -136,6 +136,8 @@ class SimulationStep:
     queries: int
     kinetic_energy: float
     coupling_energy: float
+    energy_gain: float
+    energy_removed: float
     micros: float
 
 class Simulation:
@@ -149,6 +151,8 @@ class Simulation:
         start_pose: Sequence[float],
         *,
         mass: float = 1.0,
+        inertia: Optional[Sequence[float]] = None,
+        centre_of_mass: Optional[Sequence[float]] = None,
         coupling: Optional[Tuple[float, float]] = None,
         stiffness: Optional[float] = None,
         max_penetration: float = 0.25,

@@ -11,6 +11,20 @@ use vps::haptics::trajectory::trajectory_text;
 use vps::shapes;
 use vps::{voxelize, write_pointshell, write_voxmap, CachedVoxmap, Mesh, PointshellFile, Pose, VoxelizeParams};
 
+/// That the summary `j` ends at translation `t`. JSON prints the shortest text that reads
+/// back exactly; serde_json's parser may be an ulp off.
+fn assert_final_translation(j: &serde_json::Value, t: DVec3) {
+    let got: Vec<f64> = j["final_pose"]["translation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    for (g, w) in got.iter().zip(t.to_array()) {
+        assert!((g - w).abs() <= 1e-15 * w.abs().max(1.0), "{got:?} vs {t}");
+    }
+}
+
 /// A wall 2 voxels thick (voxels of 0.1, with distances) and a ball of radius 0.5 written as
 /// files, and a device file that pushes the ball through the wall at 10 voxels per step and
 /// holds it beyond: the wall test of `vps/tests/simulation.rs`, through the command line.
@@ -54,6 +68,7 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
     assert!(j["steps_limited"].as_u64().unwrap() > 0, "{j}");
     assert!(j["max_penetration_voxels"].as_f64().unwrap() <= 0.25 + 1e-9, "{j}");
     assert!(j["step_us"]["p99"].as_f64().unwrap() > 0.0);
+    assert_eq!(j["energy"]["passive"], true, "{j}");
 
     // The library, in process, on the same files: the same final pose, bit for bit.
     let voxmap = CachedVoxmap::open(&vxm).unwrap();
@@ -64,17 +79,7 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
         sim.step(pose).unwrap();
     }
     let t = sim.state().pose.translation;
-    // JSON prints the shortest text that reads back exactly; serde_json's parser may be an
-    // ulp off.
-    let got: Vec<f64> = j["final_pose"]["translation"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
-    for (g, w) in got.iter().zip(t.to_array()) {
-        assert!((g - w).abs() <= 1e-15 * w.abs().max(1.0), "{got:?} vs {t}");
-    }
+    assert_final_translation(&j, t);
     assert!(t.x < -0.45, "the ball's centre at x = {}", t.x);
 
     let text = std::fs::read_to_string(&csv).unwrap();
@@ -119,6 +124,31 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
         stderr(&o)
     );
 
+    // Given mass properties: the same run as the library's with them, bit for bit.
+    let given = json(&vps(&[
+        "simulate",
+        p(&vxm),
+        p(&vps_path),
+        "--device",
+        p(&device),
+        "--mass",
+        "2",
+        "--inertia",
+        "0.3,0.4,0.5,0.01,0,-0.02",
+        "--centre-of-mass",
+        "0.1,0,0",
+        "--json",
+    ]));
+    let inertia = vps::haptics::simulation::inertia_tensor(&[0.3, 0.4, 0.5, 0.01, 0.0, -0.02]).unwrap();
+    let body = MassProperties::given(2.0, DVec3::new(0.1, 0.0, 0.0), inertia).unwrap();
+    let mut sim = Simulation::new(&voxmap, &file, body, SimulationParams::for_body(&body), poses[0]).unwrap();
+    for pose in &poses {
+        sim.step(pose).unwrap();
+    }
+    assert_eq!(given["params"]["inertia"][0][1], 0.01, "{given}");
+    assert_eq!(given["params"]["centre_of_mass"][0], 0.1, "{given}");
+    assert_final_translation(&given, sim.state().pose.translation);
+
     // The table form.
     let o = vps(&["simulate", p(&vxm), p(&vps_path), "--device", p(&device)]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -129,6 +159,11 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
         (vec!["--mass", "0"], "--mass"),
         (vec!["--coupling", "5"], "K,B"),
         (vec!["--max-penetration", "-1"], "--max-penetration"),
+        (vec!["--inertia", "1,2"], "3, 6 or 9 numbers"),
+        (vec!["--inertia", "1,1,-1"], "positive definite"),
+        (vec!["--inertia", "1,1,x"], "is not a number"),
+        (vec!["--centre-of-mass", "0,0,0"], "--inertia"),
+        (vec!["--inertia", "1,1,1", "--centre-of-mass", "0,0"], "x,y,z"),
     ] {
         let mut all = vec!["simulate", p(&vxm), p(&vps_path), "--device", p(&device)];
         all.extend(args);

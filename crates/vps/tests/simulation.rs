@@ -112,9 +112,10 @@ fn comes_to_rest(factor: f64) {
     params.contact.stiffness *= factor;
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.1, 0.0, 0.5 + 3.0 * s)).unwrap();
     let device = at(0.1, 0.0, 0.5 - 3.0 * s);
-    let mut speeds = Vec::new();
+    let (mut speeds, mut slowed) = (Vec::new(), 0);
     for i in 0..500 {
         let step = sim.step(&device).unwrap();
+        slowed += (step.energy_removed > 0.0) as u32;
         assert!(step.contact.max_penetration <= 0.25 * s + 1e-12);
         // Settled, a step is one query that nothing stops.
         assert!(
@@ -127,6 +128,7 @@ fn comes_to_rest(factor: f64) {
         speeds.push(speed);
     }
     let last = *speeds.last().unwrap();
+    eprintln!("rest, contact stiffness ×{factor}: {slowed} steps of 500 slowed to stay passive, {last:.1e} voxels/ms");
     assert!(
         last < 1e-3,
         "contact stiffness ×{factor}: still moving at {last} voxels/ms; speeds {:?}",
@@ -206,9 +208,9 @@ fn random_motions_stay_passive(factor: f64) {
     params.contact.stiffness *= factor;
     let mut rng = shapes::SplitMix(5);
     let mut sim = Simulation::new(&plane, &ball, body, params, at(0.0, 0.0, 0.5 + s)).unwrap();
-    let mut balance = EnergyBalance::new(&plane, &ball, params, &sim.state().pose);
+    let mut balance = EnergyBalance::new(&plane, &ball, &body, params, &sim.state().pose);
     let mut device = DVec3::new(0.0, 0.0, 0.5 + s);
-    let (mut in_contact, mut worst) = (0, f64::NEG_INFINITY);
+    let (mut in_contact, mut slowed, mut worst) = (0, 0, f64::NEG_INFINITY);
     for i in 0..600 {
         // A random walk of the hand, up to ±3 voxels about the resting height, ±1 voxel/ms.
         let before = device;
@@ -216,36 +218,105 @@ fn random_motions_stay_passive(factor: f64) {
         device.z = device.z.clamp(0.5 - 3.0 * s, 0.5 + 3.0 * s);
         let state = *sim.state();
         let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
-        worst = worst.max(balance.check(i, &state, before, device, &step));
+        let (before, device) = (at(before.x, before.y, before.z), at(device.x, device.y, device.z));
+        worst = worst.max(balance.check(i, &state, &before, &device, &step));
         in_contact += (step.contact.points_in_contact > 0) as u32;
+        slowed += (step.energy_removed > 0.0) as u32;
     }
     assert!(in_contact > 100, "only {in_contact} steps in contact");
     eprintln!(
         "passivity, contact stiffness ×{factor}: largest gain over the device's work {worst:.3e}, \
-         {in_contact} steps in contact"
+         {in_contact} steps in contact, {slowed} slowed to stay passive"
     );
 }
 
-/// Issue 13's passivity, step by step, for a device that only translates: the object's
-/// energy (kinetic, the coupling's springs, the contact's springs `Σ ½·K·w·d²`, measured point
-/// by point) may rise in a step by at most the work the device did on it through the
-/// coupling: the coupling's force on the object at the start and end of the step, averaged
-/// (trapezoid rule), times the device's displacement, the spring's end moving with the hand.
+/// Issue 13's passivity for a device that turns as well: a cube on the plane of
+/// [`ball_over_plane`], its device on a random walk in position (±1 voxel a millisecond, up to
+/// 3 voxels into the plane) and in orientation (±0.05 radian about each axis a millisecond,
+/// within 0.6 radian of upright), so that its edges and corners dig in and the contact pushes
+/// with a torque: the angular coupling and the angular bound of the contact's stiffness are
+/// held to the same inequality, at every contact stiffness of [`CONTACT_STIFFNESS_FACTORS`].
+#[test]
+fn random_device_turns_in_contact_never_add_energy() {
+    for factor in CONTACT_STIFFNESS_FACTORS {
+        random_turns_stay_passive(factor);
+    }
+}
+
+/// [`random_device_turns_in_contact_never_add_energy`] at `factor` times the default contact
+/// stiffness.
+fn random_turns_stay_passive(factor: f64) {
+    let (s, plane, _) = ball_over_plane();
+    let cube = moving_shell(shapes::cuboid(DVec3::splat(-0.4), DVec3::splat(0.4)), 0.05);
+    let body = MassProperties::of_shell(&cube, 1.0);
+    let mut params = SimulationParams::for_body(&body);
+    params.contact.stiffness *= factor;
+    let rest = 0.4 + s;
+    let mut rng = shapes::SplitMix(11);
+    let mut device = at(0.0, 0.0, rest);
+    let mut sim = Simulation::new(&plane, &cube, body, params, device).unwrap();
+    let mut balance = EnergyBalance::new(&plane, &cube, &body, params, &sim.state().pose);
+    let (mut in_contact, mut torqued, mut slowed, mut worst) = (0, 0, 0, f64::NEG_INFINITY);
+    for i in 0..600 {
+        let before = device;
+        let mut p =
+            before.translation + DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * s;
+        p.z = p.z.clamp(rest - 3.0 * s, rest + 3.0 * s);
+        let spin = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * 0.05;
+        let mut q = glam::DQuat::from_scaled_axis(spin) * before.rotation;
+        if q.angle_between(glam::DQuat::IDENTITY) > 0.6 {
+            q = glam::DQuat::from_scaled_axis(-spin) * before.rotation;
+        }
+        device = Pose::new(p.to_array(), [q.w, q.x, q.y, q.z]).unwrap();
+        let state = *sim.state();
+        let step = sim.step(&device).unwrap();
+        assert!(step.contact.max_penetration <= 0.25 * s + 1e-12, "step {i}");
+        worst = worst.max(balance.check(i, &state, &before, &device, &step));
+        in_contact += (step.contact.points_in_contact > 0) as u32;
+        // A contact torque about the centre of mass of at least a tenth of the force times the
+        // cube's half side: an edge or a corner, not a face, bears.
+        let arm = step.contact.torque.length() / step.contact.force.length().max(f64::MIN_POSITIVE);
+        torqued += (step.contact.points_in_contact > 0 && arm > 0.1) as u32;
+        slowed += (step.energy_removed > 0.0) as u32;
+    }
+    assert!(in_contact > 100, "only {in_contact} steps in contact");
+    assert!(torqued > 100, "only {torqued} steps with a contact torque");
+    eprintln!(
+        "passivity with turns, contact stiffness ×{factor}: largest gain over the device's work {worst:.3e}, \
+         {in_contact} steps in contact, {torqued} with a torque, {slowed} slowed to stay passive"
+    );
+}
+
+/// Issue 13's passivity, step by step: the object's energy (kinetic, the coupling's springs,
+/// the contact's springs `Σ ½·K·w·d²`, measured point by point) may rise in a step by at most
+/// the work the device did on it through the coupling: the coupling's force and torque on the
+/// object at the start and end of the step, averaged (trapezoid rule), times the device's
+/// displacement (of the object's centre of mass carried by the device's pose) and rotation
+/// vector, the springs' ends moving with the hand.
 struct EnergyBalance<'a> {
     voxmap: &'a CachedVoxmap,
     shell: &'a Pointshell,
     params: SimulationParams,
+    /// The centre of mass in the pointshell's frame, where the linear spring pulls.
+    centre: DVec3,
     /// The object's energy after the last step checked.
     energy: f64,
 }
 
 impl<'a> EnergyBalance<'a> {
-    /// The balance of an object at rest at `start`.
-    fn new(voxmap: &'a CachedVoxmap, shell: &'a Pointshell, params: SimulationParams, start: &Pose) -> Self {
+    /// The balance of `body`, at rest at `start`.
+    fn new(
+        voxmap: &'a CachedVoxmap,
+        shell: &'a Pointshell,
+        body: &MassProperties,
+        params: SimulationParams,
+        start: &Pose,
+    ) -> Self {
         let mut balance = EnergyBalance {
             voxmap,
             shell,
             params,
+            centre: body.centre,
             energy: 0.0,
         };
         balance.energy = balance.contact_energy(start);
@@ -270,13 +341,16 @@ impl<'a> EnergyBalance<'a> {
     /// Step `i`, from the object in `state` with the device moving from `before` to `device`:
     /// asserts it made no energy from nothing (beyond 10⁻⁹ of the energy, rounding) and
     /// returns what it made (negative when it lost some).
-    fn check(&mut self, i: usize, state: &BodyState, before: DVec3, device: DVec3, step: &Step) -> f64 {
+    fn check(&mut self, i: usize, state: &BodyState, before: &Pose, device: &Pose, step: &Step) -> f64 {
         let (c, h) = (self.params.coupling, self.params.step);
-        let device_velocity = (device - before) / h;
+        let centre = |p: &Pose| p.transform_point(self.centre);
+        let (moved, turned) = (centre(device) - centre(before), turn_between(before, device));
         let pull_before =
-            (before - state.pose.translation) * c.stiffness + (device_velocity - state.velocity) * c.damping;
-        let pull_after = -step.device_force;
-        let work = 0.5 * (pull_before + pull_after).dot(device - before);
+            (centre(before) - centre(&state.pose)) * c.stiffness + (moved / h - state.velocity) * c.damping;
+        let twist_before = turn_between(&state.pose, before) * c.angular_stiffness
+            + (turned / h - state.angular_velocity) * c.angular_damping;
+        let work =
+            0.5 * (pull_before - step.device_force).dot(moved) + 0.5 * (twist_before - step.device_torque).dot(turned);
         let now = step.kinetic_energy + step.coupling_energy + self.contact_energy(&step.pose);
         let gain = now - self.energy - work;
         assert!(
@@ -287,6 +361,11 @@ impl<'a> EnergyBalance<'a> {
         self.energy = now;
         gain
     }
+}
+
+/// The rotation vector (axis times angle, the shorter way round) that turns `from` into `to`.
+fn turn_between(from: &Pose, to: &Pose) -> DVec3 {
+    vps::geometry::rotation_vector(to.rotation * from.rotation.inverse())
 }
 
 /// Pressed to the allowed depth and pulled sideways, the object slides, and passively. The
@@ -302,7 +381,7 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
     let body = MassProperties::of_shell(&ball, 1.0);
     let params = SimulationParams::for_body(&body);
     let mut sim = Simulation::new(&big, &ball, body, params, at(0.0, 0.0, PRESSED_SLIDE_TOP)).unwrap();
-    let mut balance = EnergyBalance::new(&big, &ball, params, &sim.state().pose);
+    let mut balance = EnergyBalance::new(&big, &ball, &body, params, &sim.state().pose);
     let mut device = DVec3::new(0.0, 0.0, PRESSED_SLIDE_TOP);
     let (mut limited, mut stalled, mut one_query) = (0, 0, 0);
     for i in 0..500 {
@@ -311,7 +390,13 @@ fn an_object_pressed_to_the_depth_limit_still_slides() {
         let state = *sim.state();
         let step = sim.step(&at(device.x, device.y, device.z)).unwrap();
         assert!(step.contact.max_penetration <= 0.25 * s + 1e-12, "step {i}");
-        balance.check(i, &state, before, device, &step);
+        balance.check(
+            i,
+            &state,
+            &at(before.x, before.y, before.z),
+            &at(device.x, device.y, device.z),
+            &step,
+        );
         if i > 150 {
             limited += step.limited as u32;
             one_query += (step.limited && step.queries == 1) as u32;

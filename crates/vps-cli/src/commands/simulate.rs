@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::json;
 
-use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step};
 use vps::haptics::trajectory::read_trajectory;
 use vps::Pose;
 
@@ -30,9 +30,18 @@ pub struct SimulateArgs {
     /// format of `haptics-bench --trajectory`). The object starts at rest at the first.
     #[arg(long)]
     pub device: PathBuf,
-    /// Mass of the held object (its inertia is that of a shell over its points).
+    /// Mass of the held object (its inertia is that of a shell over its points, unless
+    /// `--inertia` gives it).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub mass: f64,
+    /// The inertia tensor about the centre of mass, in the pointshell's frame: "Ixx,Iyy,Izz"
+    /// or "Ixx,Iyy,Izz,Ixy,Ixz,Iyz" (symmetric, positive definite).
+    #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
+    pub inertia: Option<Numbers>,
+    /// The centre of mass in the pointshell's frame, "x,y,z" (default: that of the shell over
+    /// its points); only with `--inertia`.
+    #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true, requires = "inertia")]
+    pub centre_of_mass: Option<Numbers>,
     /// The coupling's linear stiffness and damping, "K,B" (default: a 32 Hz spring at the
     /// mass, critically damped; the angular ones follow at the radius of gyration).
     #[arg(long, value_parser = parse_pair)]
@@ -75,6 +84,35 @@ fn parse_pair(text: &str) -> Result<(f64, f64), String> {
     }
 }
 
+/// A list of numbers given as one argument, separated by commas.
+#[derive(Clone, Debug)]
+pub struct Numbers(pub Vec<f64>);
+
+/// Numbers separated by commas.
+fn parse_numbers(text: &str) -> Result<Numbers, String> {
+    let parse = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("\"{t}\" in \"{text}\" is not a number"))
+    };
+    text.split(',').map(parse).collect::<Result<_, _>>().map(Numbers)
+}
+
+/// The held object's mass properties: the shell's, or those given.
+fn body_of(a: &SimulateArgs, shell: &impl vps::PointshellData) -> Result<MassProperties> {
+    let shell_body = MassProperties::of_shell(shell, a.mass);
+    let Some(Numbers(components)) = &a.inertia else {
+        return Ok(shell_body);
+    };
+    let inertia = inertia_tensor(components).context("--inertia")?;
+    let centre = match a.centre_of_mass.as_ref().map(|n| &n.0[..]) {
+        None => shell_body.centre,
+        Some(&[x, y, z]) => glam::DVec3::new(x, y, z),
+        Some(other) => bail!("--centre-of-mass is \"x,y,z\", got {} numbers", other.len()),
+    };
+    MassProperties::given(a.mass, centre, inertia).context("--mass, --inertia and --centre-of-mass")
+}
+
 /// Run the loop over the device's poses.
 pub fn run(a: SimulateArgs) -> Result<()> {
     if !(a.mass.is_finite() && a.mass > 0.0) {
@@ -89,7 +127,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if vps::PointshellData::points(&shell).is_empty() {
         bail!("{} has no points: nothing to hold", a.pointshell.display());
     }
-    let body = MassProperties::of_shell(&shell, a.mass);
+    let body = body_of(&a, &shell)?;
     let mut params = SimulationParams::for_body(&body);
     if let Some((k, b)) = a.coupling {
         params = params.with_coupling(Coupling::from_linear(k, b, &body));
@@ -135,14 +173,15 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if let Some(path) = &a.plot {
         write_plot(path, &steps, voxel)?;
     }
-    report(&a, &steps, &params, voxel)
+    report(&a, &steps, &params, &body, voxel)
 }
 
 /// The per-step CSV.
 fn csv(steps: &[Step]) -> String {
     let mut out = String::from(
         "step,tx,ty,tz,qw,qx,qy,qz,device_fx,device_fy,device_fz,device_tx,device_ty,device_tz,\
-         contact_fx,contact_fy,contact_fz,points_in_contact,max_penetration,limited,out_of_time,queries,step_us\n",
+         contact_fx,contact_fy,contact_fz,points_in_contact,max_penetration,limited,out_of_time,queries,\
+         energy_gain,energy_removed,step_us\n",
     );
     for (i, s) in steps.iter().enumerate() {
         let (t, q) = (s.pose.translation, s.pose.rotation);
@@ -150,7 +189,7 @@ fn csv(steps: &[Step]) -> String {
         // Infallible: writing to a String.
         let _ = writeln!(
             out,
-            "{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3}",
+            "{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3}",
             t.x,
             t.y,
             t.z,
@@ -172,6 +211,8 @@ fn csv(steps: &[Step]) -> String {
             s.limited as u8,
             s.out_of_time as u8,
             s.queries,
+            s.energy_gain,
+            s.energy_removed,
             s.micros
         );
     }
@@ -209,8 +250,18 @@ fn write_plot(path: &std::path::Path, steps: &[Step], voxel: f64) -> Result<()> 
     .with_context(|| format!("writing plot {}", path.display()))
 }
 
+/// A step's energy may rise over the device's work by this fraction of the largest energy
+/// (rounding) and still count as passive.
+const PASSIVE_ROUNDING: f64 = 1e-9;
+
 /// The summary, as JSON or a few lines.
-fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f64) -> Result<()> {
+fn report(
+    a: &SimulateArgs,
+    steps: &[Step],
+    params: &SimulationParams,
+    body: &MassProperties,
+    voxel: f64,
+) -> Result<()> {
     let mut micros: Vec<f64> = steps.iter().map(|s| s.micros).collect();
     micros.sort_by(f64::total_cmp);
     let deepest = steps.iter().map(|s| s.contact.max_penetration).fold(0.0, f64::max);
@@ -220,6 +271,9 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
     let over = steps.iter().filter(|s| s.micros > 1000.0).count();
     let largest_force = steps.iter().map(|s| s.device_force.length()).fold(0.0, f64::max);
     let energy = |s: &Step| s.kinetic_energy + s.coupling_energy;
+    let largest_gain = steps.iter().map(|s| s.energy_gain).fold(f64::NEG_INFINITY, f64::max);
+    let slowed = steps.iter().filter(|s| s.energy_removed > 0.0).count();
+    let removed: f64 = steps.iter().map(|s| s.energy_removed).sum();
     let last: &Pose = &steps.last().expect("a trajectory has a pose").pose;
     let c = params.coupling;
     if a.json {
@@ -240,11 +294,17 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
                 "final_kinetic": steps.last().map(|s| s.kinetic_energy),
                 "final_kinetic_and_coupling": steps.last().map(energy),
                 "max_kinetic_and_coupling": steps.iter().map(energy).fold(0.0, f64::max),
+                "max_gain_over_device_work": largest_gain,
+                "passive": largest_gain <= PASSIVE_ROUNDING * steps.iter().map(energy).fold(1.0, f64::max),
+                "steps_slowed_for_passivity": slowed,
+                "energy_removed": removed,
             },
             "final_pose": pose_json(last),
             "params": {
                 "step_seconds": params.step,
                 "mass": a.mass,
+                "centre_of_mass": body.centre.to_array(),
+                "inertia": body.inertia.transpose().to_cols_array_2d(),
                 "coupling": {"stiffness": c.stiffness, "damping": c.damping, "angular_stiffness": c.angular_stiffness, "angular_damping": c.angular_damping},
                 "contact_stiffness": params.contact.stiffness,
                 "max_penetration_voxels": params.max_penetration,
@@ -273,6 +333,10 @@ fn report(a: &SimulateArgs, steps: &[Step], params: &SimulationParams, voxel: f6
     if a.budget_us.is_some() {
         outln!("{out_of_time} steps stopped short when the budget ran out");
     }
+    outln!(
+        "energy: at most {largest_gain:.3e} made over the device's work in a step; \
+         {slowed} steps slowed to stay passive ({removed:.3e} taken out)"
+    );
     outln!(
         "step µs: p50 {:.1}, p99 {:.1}, max {:.1}; {over} over 1 ms",
         percentile(&micros, 50.0),

@@ -6,4 +6,4 @@ mod pose;
 pub mod sat;
 pub mod winding;
 
-pub use pose::{Pose, PoseError};
+pub use pose::{rotation_vector, Pose, PoseError};

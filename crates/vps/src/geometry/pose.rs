@@ -169,9 +169,35 @@ impl Pose {
     }
 }
 
+/// The rotation vector (axis times angle, the angle in [0, π]) of unit quaternion `q`.
+pub fn rotation_vector(q: DQuat) -> DVec3 {
+    // q and −q are the same rotation: take the one with w ≥ 0, the shorter way round.
+    let q = if q.w < 0.0 { -q } else { q };
+    let v = DVec3::new(q.x, q.y, q.z);
+    let s = v.length();
+    if s < 1e-12 {
+        return v * 2.0;
+    }
+    v * (2.0 * s.atan2(q.w) / s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotation_vectors_round_trip() {
+        for v in [
+            DVec3::ZERO,
+            DVec3::new(0.3, -0.2, 0.1),
+            DVec3::new(0.0, 3.0, 0.0),
+            DVec3::new(1e-9, 0.0, 0.0),
+        ] {
+            let q = DQuat::from_scaled_axis(v);
+            assert!((rotation_vector(q) - v).length() < 1e-9, "{v}: {}", rotation_vector(q));
+            assert!((rotation_vector(-q) - v).length() < 1e-9, "−q, {v}");
+        }
+    }
 
     #[test]
     fn arrays_are_the_text_forms_order() {

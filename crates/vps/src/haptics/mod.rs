@@ -40,6 +40,6 @@ pub enum HapticsError {
     #[error(transparent)]
     Pose(#[from] PoseError),
     /// A parameter is out of range.
-    #[error("invalid contact parameter: {0}")]
+    #[error("invalid parameter: {0}")]
     Params(String),
 }

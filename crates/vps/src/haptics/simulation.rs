@@ -29,8 +29,10 @@
 //!    force removed, so a blocked object still slides; and when that slide is blocked too,
 //!    pressed to the allowed depth, it is lifted off the face by a small slope, if the step
 //!    stays passive (`Ledger`);
-//! 4. the velocity the object really moved with, and the wrench the device feels: the
-//!    coupling's, reversed.
+//! 4. the velocity the object really moved with, scaled down if the step would otherwise
+//!    end with more energy than it started with plus the device's work (a passivity
+//!    controller: [`Step::energy_removed`]), and the wrench the device feels: the coupling's,
+//!    reversed.
 //!
 //! `docs/HAPTICS.md` ("The haptic loop") states the defaults and what the tests show.
 
@@ -41,7 +43,7 @@ use glam::{DMat3, DQuat, DVec3};
 
 use super::query::{contact_threaded, PARALLEL_MIN_POINTS};
 use super::{contact, point_penetration, sweep, CachedVoxmap, Contact, ContactParams, HapticsError};
-use crate::geometry::Pose;
+use crate::geometry::{rotation_vector, Pose};
 use crate::pointshell::PointshellData;
 
 /// Mass, centre of mass and inertia of the simulated object.
@@ -85,11 +87,65 @@ impl MassProperties {
         MassProperties { mass, centre, inertia }
     }
 
+    /// Given mass properties: `mass`, the centre of mass `centre` (pointshell frame) and the
+    /// inertia tensor `inertia` about it, which must be symmetric and positive definite.
+    pub fn given(mass: f64, centre: DVec3, inertia: DMat3) -> Result<MassProperties, HapticsError> {
+        let body = MassProperties { mass, centre, inertia };
+        body.check()?;
+        Ok(body)
+    }
+
+    /// Whether these are mass properties a rigid body can have: a finite positive mass, a
+    /// finite centre, a symmetric positive definite inertia.
+    fn check(&self) -> Result<(), HapticsError> {
+        let bad = |what: &str| Err(HapticsError::Params(format!("{what}: {self:?}")));
+        if !(self.mass.is_finite() && self.mass > 0.0) {
+            return bad("the mass must be finite and positive");
+        }
+        if !self.centre.is_finite() || !self.inertia.is_finite() {
+            return bad("the centre of mass and the inertia must be finite");
+        }
+        let i = self.inertia;
+        let scale = i.x_axis.x.abs() + i.y_axis.y.abs() + i.z_axis.z.abs();
+        let asymmetry = (i - i.transpose())
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        if asymmetry > 1e-9 * scale {
+            return bad("the inertia tensor must be symmetric");
+        }
+        // Sylvester's criterion: the leading principal minors are positive.
+        let m2 = i.x_axis.x * i.y_axis.y - i.y_axis.x * i.x_axis.y;
+        if !(i.x_axis.x > 0.0 && m2 > 0.0 && i.determinant() > 0.0) {
+            return bad("the inertia tensor must be positive definite");
+        }
+        Ok(())
+    }
+
     /// The radius of gyration: `sqrt(trace(I) / 2m)`, the distance at which the whole mass
     /// would have the same mean moment of inertia.
     pub fn radius_of_gyration(&self) -> f64 {
         let trace = self.inertia.x_axis.x + self.inertia.y_axis.y + self.inertia.z_axis.z;
         (trace / (2.0 * self.mass)).sqrt()
+    }
+}
+
+/// An inertia tensor from its components: `[Ixx, Iyy, Izz]` (principal axes along the
+/// pointshell's), `[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`, or the 9 entries of the matrix, row by
+/// row. Whether it is one a body can have is checked by [`MassProperties::given`].
+pub fn inertia_tensor(components: &[f64]) -> Result<DMat3, HapticsError> {
+    match *components {
+        [xx, yy, zz] => Ok(DMat3::from_diagonal(DVec3::new(xx, yy, zz))),
+        [xx, yy, zz, xy, xz, yz] => Ok(DMat3::from_cols(
+            DVec3::new(xx, xy, xz),
+            DVec3::new(xy, yy, yz),
+            DVec3::new(xz, yz, zz),
+        )),
+        [..] if components.len() == 9 => Ok(DMat3::from_cols_slice(components).transpose()),
+        _ => Err(HapticsError::Params(format!(
+            "an inertia tensor is 3, 6 or 9 numbers, got {}",
+            components.len()
+        ))),
     }
 }
 
@@ -224,6 +280,13 @@ pub struct Step {
     pub kinetic_energy: f64,
     /// Energy in the coupling's springs after the step.
     pub coupling_energy: f64,
+    /// The object's energy after the step (kinetic, the coupling's and the contact's springs)
+    /// less its energy before and the work the device did on it through the coupling (the
+    /// trapezoid rule): at most 0, up to rounding, as the loop is passive.
+    pub energy_gain: f64,
+    /// The energy the step would have made from nothing, taken out by slowing the object (see
+    /// `docs/HAPTICS.md`, "Passivity"); 0 for most steps.
+    pub energy_removed: f64,
     /// Wall time of the step, microseconds.
     pub micros: f64,
 }
@@ -295,15 +358,14 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         start: Pose,
     ) -> Result<Simulation<'a, S>, HapticsError> {
         let c = params.coupling;
-        let positive = [params.step, body.mass, params.max_penetration];
+        let positive = [params.step, params.max_penetration];
         let non_negative = [c.stiffness, c.damping, c.angular_stiffness, c.angular_damping];
         if !positive.iter().all(|x| x.is_finite() && *x > 0.0)
             || !non_negative.iter().all(|x| x.is_finite() && *x >= 0.0)
-            || !body.centre.is_finite()
-            || !body.inertia.is_finite()
         {
-            return Err(HapticsError::Params(format!("{params:?}, {body:?}")));
+            return Err(HapticsError::Params(format!("{params:?}")));
         }
+        body.check()?;
         let radius = shell
             .points()
             .iter()
@@ -475,7 +537,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let advance = self.advance(&ledger, velocity * h, spin * h, started)?;
         let pose = advance.pose;
         // Stopped short: the velocity it really moved with, but not into the wall.
-        let st = if advance.fraction < 1.0 {
+        let mut st = if advance.fraction < 1.0 {
             self.stopped_at(&advance)
         } else {
             BodyState {
@@ -484,6 +546,10 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
                 angular_velocity: spin,
             }
         };
+        let (keep, made) = ledger.passive_speed(self, &st, &advance.contact);
+        st.velocity *= keep;
+        st.angular_velocity *= keep;
+        let energy_gain = ledger.excess_of(self, &st, &advance.contact);
         self.state = st;
         self.contact = advance.contact;
         // Only now: a step that fails leaves the simulation as it was.
@@ -500,6 +566,8 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             queries: advance.queries,
             kinetic_energy: self.kinetic_energy(&st),
             coupling_energy: pull.energy,
+            energy_gain,
+            energy_removed: made.max(0.0),
             micros: started.elapsed().as_secs_f64() * 1e6,
         })
     }
@@ -865,14 +933,66 @@ impl Ledger {
     /// How much more energy the object has if the step ends at `end` than the step may give
     /// it: passive when not positive (no rounding margin given away).
     fn excess<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>, end: &Advance) -> f64 {
-        let state = sim.stopped_at(end);
-        let pull = sim.coupling(&state, &self.device, self.device_velocity);
-        let energy = sim.kinetic_energy(&state) + pull.energy + end.contact.energy;
-        // The device's displacement and rotation vector over the step.
-        let h = sim.params.step;
-        let (moved, turned) = (self.device_velocity.0 * h, self.device_velocity.1 * h);
+        self.excess_of(sim, &sim.stopped_at(end), &end.contact)
+    }
+
+    /// [`Ledger::excess`] of a step that ends in `state`, with `contact` there.
+    fn excess_of<S: PointshellData + ?Sized>(
+        &self,
+        sim: &Simulation<'_, S>,
+        state: &BodyState,
+        contact: &Contact,
+    ) -> f64 {
+        let pull = sim.coupling(state, &self.device, self.device_velocity);
+        let energy = sim.kinetic_energy(state) + pull.energy + contact.energy;
+        let (moved, turned) = self.device_moved(sim);
         let work = 0.5 * ((self.pull.0 + pull.force).dot(moved) + (self.pull.1 + pull.torque).dot(turned));
         energy - (self.energy + work)
+    }
+
+    /// The device's displacement and rotation vector over the step.
+    fn device_moved<S: PointshellData + ?Sized>(&self, sim: &Simulation<'_, S>) -> (DVec3, DVec3) {
+        let h = sim.params.step;
+        (self.device_velocity.0 * h, self.device_velocity.1 * h)
+    }
+
+    /// The factor, in [0, 1], by which a step that ends in `state` (with `contact` there) keeps
+    /// its velocities so that it stays passive: 1 when it already is, else the largest that
+    /// makes [`Ledger::excess`] zero, as a passivity controller does (Hannaford & Ryu 2002).
+    ///
+    /// The contact's stiffness in the implicit step is a bound of the contact at the step's
+    /// start: a step whose end finds new points in contact (an edge or a corner struck while
+    /// turning) meets a stiffer contact than it allowed for, and the penalty springs then
+    /// store more than the approach gave up. Scaling both velocities by `a` scales the kinetic
+    /// energy by `a²` and, through the coupling's damping, the device's work by a term in `a`:
+    /// the excess is `A·a² + B·a + C`, solved for `a`.
+    /// Returns the factor and the excess before it.
+    fn passive_speed<S: PointshellData + ?Sized>(
+        &self,
+        sim: &Simulation<'_, S>,
+        state: &BodyState,
+        contact: &Contact,
+    ) -> (f64, f64) {
+        let excess = self.excess_of(sim, state, contact);
+        if excess <= 0.0 {
+            return (1.0, excess);
+        }
+        let c = sim.params.coupling;
+        let (moved, turned) = self.device_moved(sim);
+        let a2 = sim.kinetic_energy(state);
+        let b1 = 0.5 * (c.damping * state.velocity.dot(moved) + c.angular_damping * state.angular_velocity.dot(turned));
+        let c0 = excess - a2 - b1;
+        if a2 <= 0.0 {
+            return (0.0, excess);
+        }
+        let disc = b1 * b1 - 4.0 * a2 * c0;
+        let a = if disc >= 0.0 {
+            (-b1 + disc.sqrt()) / (2.0 * a2)
+        } else {
+            // No speed makes it passive: the least excess.
+            -b1 / (2.0 * a2)
+        };
+        (a.clamp(0.0, 1.0), excess)
     }
 }
 
@@ -881,35 +1001,4 @@ impl Ledger {
 fn not_into(v: DVec3, n: DVec3) -> DVec3 {
     let n = n.normalize_or_zero();
     v - n * v.dot(n).min(0.0)
-}
-
-/// The rotation vector (axis times angle, the angle in [0, π]) of unit quaternion `q`.
-fn rotation_vector(q: DQuat) -> DVec3 {
-    // q and −q are the same rotation: take the one with w ≥ 0, the shorter way round.
-    let q = if q.w < 0.0 { -q } else { q };
-    let v = DVec3::new(q.x, q.y, q.z);
-    let s = v.length();
-    if s < 1e-12 {
-        return v * 2.0;
-    }
-    v * (2.0 * s.atan2(q.w) / s)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rotation_vectors_round_trip() {
-        for v in [
-            DVec3::ZERO,
-            DVec3::new(0.3, -0.2, 0.1),
-            DVec3::new(0.0, 3.0, 0.0),
-            DVec3::new(1e-9, 0.0, 0.0),
-        ] {
-            let q = DQuat::from_scaled_axis(v);
-            assert!((rotation_vector(q) - v).length() < 1e-9, "{v}: {}", rotation_vector(q));
-            assert!((rotation_vector(-q) - v).length() < 1e-9, "−q, {v}");
-        }
-    }
 }
