@@ -56,8 +56,10 @@ pub(crate) struct PyStep {
     coupling_energy: f64,
     /// The object's energy gain over the device's work in the step: at most 0 (rounding).
     energy_gain: f64,
-    /// Energy taken out by slowing the object to keep the step passive.
+    /// Energy taken out by slowing the object, or backing it off, to keep the step passive.
     energy_removed: f64,
+    /// Whether the step backed the object off, at rest, to keep passive.
+    backed_off: bool,
     /// Wall time of the step, microseconds.
     micros: f64,
 }
@@ -78,6 +80,7 @@ impl From<Step> for PyStep {
             coupling_energy: s.coupling_energy,
             energy_gain: s.energy_gain,
             energy_removed: s.energy_removed,
+            backed_off: s.backed_off,
             micros: s.micros,
         }
     }
@@ -126,7 +129,7 @@ impl PySimulation {
     /// with `inertia`; default: the shell's); `coupling`,
     /// `(K, B)`, the coupling's linear stiffness and damping (default: a 32 Hz spring at the
     /// mass, critically damped); `stiffness`, the contact's per point (default: the
-    /// coupling's; tested passive up to 10 times it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
+    /// coupling's; tested passive up to 1000 times it); `max_penetration`, in voxels of the voxmap; `budget_seconds`, the time for
     /// each step's motion (default: exact, the same on every run).
     #[new]
     #[pyo3(signature = (voxmap, shell, start_pose, *, mass = 1.0, inertia = None, centre_of_mass = None, coupling = None, stiffness = None, max_penetration = 0.25, penetration = "distance", budget_seconds = None))]

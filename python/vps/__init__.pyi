@@ -138,6 +138,7 @@ class SimulationStep:
     coupling_energy: float
     energy_gain: float
     energy_removed: float
+    backed_off: bool
     micros: float
 
 class Simulation:

@@ -141,7 +141,7 @@ typedef struct vps_simulation_params {
     double mass;               /* of the held object (default 1); its inertia is its shell's */
     double coupling_stiffness; /* linear; default mass * (0.2 / 1 ms)^2, a 32 Hz spring */
     double coupling_damping;   /* linear; default critical for the stiffness */
-    double contact_stiffness;  /* per point in contact; default the coupling's; passive up to 10x it */
+    double contact_stiffness;  /* per point in contact; default the coupling's; passive up to 1000x it */
     double max_penetration;    /* deepest a point may go, voxels of the voxmap; default 0.25 */
     double step_budget_us;     /* time for a step's motion; default none (exact, same bits every run) */
     int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */

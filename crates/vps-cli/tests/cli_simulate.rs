@@ -119,7 +119,7 @@ fn simulate_holds_the_object_at_the_wall_as_the_library_does() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("tested passive only up to 10 times"),
+        stderr(&o).contains("tested passive only up to 1000 times"),
         "{}",
         stderr(&o)
     );

@@ -9,7 +9,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::json;
 
-use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{
+    inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step, TESTED_STIFFNESS_RATIO,
+};
 use vps::haptics::trajectory::read_trajectory;
 use vps::Pose;
 
@@ -34,8 +36,9 @@ pub struct SimulateArgs {
     /// `--inertia` gives it).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub mass: f64,
-    /// The inertia tensor about the centre of mass, in the pointshell's frame: "Ixx,Iyy,Izz"
-    /// or "Ixx,Iyy,Izz,Ixy,Ixz,Iyz" (symmetric, positive definite).
+    /// The inertia tensor about the centre of mass, in the pointshell's frame: "Ixx,Iyy,Izz",
+    /// "Ixx,Iyy,Izz,Ixy,Ixz,Iyz" or its 9 entries row by row (symmetric, positive definite;
+    /// Ixy the tensor's entry, −∫xy dm, not a CAD product of inertia +∫xy dm).
     #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
     pub inertia: Option<Numbers>,
     /// The centre of mass in the pointshell's frame, "x,y,z" (default: that of the shell over
@@ -47,7 +50,7 @@ pub struct SimulateArgs {
     #[arg(long, value_parser = parse_pair)]
     pub coupling: Option<(f64, f64)>,
     /// Contact stiffness per point (default: the coupling's stiffness). Tested passive up to
-    /// 10 times the coupling's (docs/HAPTICS.md); above that the run may gain energy.
+    /// 1000 times the coupling's (docs/HAPTICS.md); above that the run may gain energy.
     #[arg(long, allow_negative_numbers = true)]
     pub stiffness: Option<f64>,
     /// The deepest any point may go, in voxels of the voxmap.
@@ -138,9 +141,9 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         }
         params.contact.stiffness = k;
     }
-    if params.contact.stiffness > 10.0 * params.coupling.stiffness {
+    if params.contact.stiffness > TESTED_STIFFNESS_RATIO * params.coupling.stiffness {
         errln!(
-            "note: a contact stiffness of {} per point is over 10 times the coupling's ({}): the loop is tested passive only up to 10 times (docs/HAPTICS.md)",
+            "note: a contact stiffness of {} per point is over {TESTED_STIFFNESS_RATIO} times the coupling's ({}): the loop is tested passive only up to {TESTED_STIFFNESS_RATIO} times (docs/HAPTICS.md)",
             params.contact.stiffness,
             params.coupling.stiffness
         );
@@ -250,8 +253,8 @@ fn write_plot(path: &std::path::Path, steps: &[Step], voxel: f64) -> Result<()> 
     .with_context(|| format!("writing plot {}", path.display()))
 }
 
-/// A step's energy may rise over the device's work by this fraction of the largest energy
-/// (rounding) and still count as passive.
+/// A step's energy may rise over the device's work by this fraction of its energy (kinetic
+/// and the coupling's, at least 1: rounding) and still count as passive.
 const PASSIVE_ROUNDING: f64 = 1e-9;
 
 /// The summary, as JSON or a few lines.
@@ -295,8 +298,9 @@ fn report(
                 "final_kinetic_and_coupling": steps.last().map(energy),
                 "max_kinetic_and_coupling": steps.iter().map(energy).fold(0.0, f64::max),
                 "max_gain_over_device_work": largest_gain,
-                "passive": largest_gain <= PASSIVE_ROUNDING * steps.iter().map(energy).fold(1.0, f64::max),
+                "passive": steps.iter().all(|s| s.energy_gain <= PASSIVE_ROUNDING * energy(s).max(1.0)),
                 "steps_slowed_for_passivity": slowed,
+                "steps_backed_off": steps.iter().filter(|s| s.backed_off).count(),
                 "energy_removed": removed,
             },
             "final_pose": pose_json(last),
