@@ -138,7 +138,7 @@ typedef struct vps_simulation vps_simulation;
 
 /* Parameters of vps_simulation_new; a field left 0 takes its default. */
 typedef struct vps_simulation_params {
-    double mass;               /* of the held object (default 1); its inertia is its shell's */
+    double mass;               /* of the held object (default 1); its inertia is its shell's unless given */
     double coupling_stiffness; /* linear; default mass * (0.2 / 1 ms)^2, a 32 Hz spring */
     double coupling_damping;   /* linear; default critical for the stiffness */
     double contact_stiffness;  /* per point in contact; default the coupling's; passive up to 1000x it */
@@ -146,6 +146,11 @@ typedef struct vps_simulation_params {
     double step_budget_us;     /* time for a step's motion; default none (exact, same bits every run) */
     int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
     int32_t reserved;          /* must be 0 */
+    double inertia[9];         /* about the centre of mass, pointshell frame, row by row (the tensor's
+                                  own entries, Ixy = -integral of x*y dm); all 0: a shell over the points */
+    double centre_of_mass[3];  /* pointshell frame; used when inertia is given and has_centre_of_mass is 1 */
+    int32_t has_centre_of_mass; /* 1: centre_of_mass is given; 0: the shell's */
+    int32_t reserved2;         /* must be 0 */
 } vps_simulation_params;
 
 /* What one step did. World frame. */
@@ -161,6 +166,10 @@ typedef struct vps_simulation_step_result {
     int32_t limited;           /* 1: stopped short to keep within max_penetration */
     int32_t out_of_time;       /* 1: stopped short because step_budget_us ran out */
     int32_t reserved;          /* always 0 */
+    double energy_gain;        /* energy after the step less before and the device's work: <= 0 when passive */
+    double energy_removed;     /* taken out by slowing the object, or backing it off, to keep passive */
+    int32_t backed_off;        /* 1: backed off, at rest, to keep passive (docs/HAPTICS.md, "Passivity") */
+    int32_t reserved2;         /* always 0 */
 } vps_simulation_step_result;
 
 /*
@@ -181,11 +190,12 @@ int vps_simulation_step(vps_simulation *simulation, const double device_pose[7],
 void vps_simulation_free(vps_simulation *simulation);
 
 /* The version of the library this header belongs to. The structs' sizes can change between
- * versions (0.2.0 grew vps_contact_result): a caller compares it with vps_version() at
+ * versions (0.2.0 grew vps_contact_result, 0.3.0 vps_simulation_params and
+ * vps_simulation_step_result): a caller compares it with vps_version() at
  * start-up, and does not go on when they differ. */
-#define VPS_VERSION "0.2.0"
+#define VPS_VERSION "0.3.0"
 
-/* The library's version, e.g. "0.2.0": a static string, never to be freed. */
+/* The library's version, e.g. "0.3.0": a static string, never to be freed. */
 const char *vps_version(void);
 
 #ifdef __cplusplus

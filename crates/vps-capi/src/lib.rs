@@ -428,7 +428,7 @@ fn contact_params(p: &VpsContactParams) -> Result<ContactParams, String> {
     })
 }
 
-/// The library's version, e.g. `"0.2.0"`: a static NUL-terminated string, never freed.
+/// The library's version, e.g. `"0.3.0"`: a static NUL-terminated string, never freed.
 #[no_mangle]
 pub extern "C" fn vps_version() -> *const c_char {
     const VERSION: &CStr = match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {

@@ -6,7 +6,8 @@
 
 use std::ffi::{c_char, c_double, c_int};
 
-use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams};
+use glam::DVec3;
+use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams};
 use vps::PointshellFile;
 
 use super::*;
@@ -31,6 +32,16 @@ pub struct VpsSimulationParams {
     pub penetration: i32,
     /// Must be 0.
     pub reserved: i32,
+    /// The inertia tensor about the centre of mass, pointshell frame, row by row; all 0: that
+    /// of a shell over the points.
+    pub inertia: [c_double; 9],
+    /// The centre of mass, pointshell frame, when `has_centre_of_mass` is 1 and `inertia` is
+    /// given; else the shell's.
+    pub centre_of_mass: [c_double; 3],
+    /// 1: `centre_of_mass` is given; 0: the shell's.
+    pub has_centre_of_mass: i32,
+    /// Must be 0.
+    pub reserved2: i32,
 }
 
 /// `vps_simulation_step_result` in C: what one step did.
@@ -59,6 +70,15 @@ pub struct VpsSimulationStep {
     pub out_of_time: i32,
     /// Always 0.
     pub reserved: i32,
+    /// The object's energy gain over the device's work in the step: at most 0 (rounding) when
+    /// it is passive.
+    pub energy_gain: c_double,
+    /// Energy taken out by slowing the object, or backing it off, to keep the step passive.
+    pub energy_removed: c_double,
+    /// 1 when the step backed the object off, at rest, to keep passive.
+    pub backed_off: i32,
+    /// Always 0.
+    pub reserved2: i32,
 }
 
 /// `vps_simulation` in C.
@@ -78,7 +98,21 @@ fn simulation_params(
     if shell.points().is_empty() {
         return Err("the pointshell has no points".to_string());
     }
-    let body = MassProperties::of_shell(shell, mass);
+    let shell_body = MassProperties::of_shell(shell, mass);
+    if p.reserved2 != 0 || !matches!(p.has_centre_of_mass, 0 | 1) {
+        return Err("has_centre_of_mass must be 0 or 1, reserved2 0".to_string());
+    }
+    let body = if p.inertia.iter().all(|&x| x == 0.0) {
+        shell_body
+    } else {
+        let inertia = inertia_tensor(&p.inertia).map_err(|e| e.to_string())?;
+        let centre = if p.has_centre_of_mass == 1 {
+            DVec3::from_array(p.centre_of_mass)
+        } else {
+            shell_body.centre
+        };
+        MassProperties::given(mass, centre, inertia).map_err(|e| e.to_string())?
+    };
     let mut params = SimulationParams::for_body(&body);
     let contact = contact_params(&VpsContactParams {
         stiffness: 0.0,
@@ -208,6 +242,10 @@ pub unsafe extern "C" fn vps_simulation_step(
             limited: s.limited as i32,
             out_of_time: s.out_of_time as i32,
             reserved: 0,
+            energy_gain: s.energy_gain,
+            energy_removed: s.energy_removed,
+            backed_off: s.backed_off as i32,
+            reserved2: 0,
         };
         // SAFETY: not NULL, and the header requires a writable struct; unaligned is fine.
         unsafe { out.write_unaligned(result) };
@@ -237,7 +275,10 @@ mod tests {
         assert_eq!(offset_of!(VpsSimulationParams, max_penetration), 32);
         assert_eq!(offset_of!(VpsSimulationParams, step_budget_us), 40);
         assert_eq!(offset_of!(VpsSimulationParams, penetration), 48);
-        assert_eq!(size_of::<VpsSimulationParams>(), 56);
+        assert_eq!(offset_of!(VpsSimulationParams, inertia), 56);
+        assert_eq!(offset_of!(VpsSimulationParams, centre_of_mass), 128);
+        assert_eq!(offset_of!(VpsSimulationParams, has_centre_of_mass), 152);
+        assert_eq!(size_of::<VpsSimulationParams>(), 160);
         assert_eq!(offset_of!(VpsSimulationStep, device_force), 56);
         assert_eq!(offset_of!(VpsSimulationStep, contact_force), 104);
         assert_eq!(offset_of!(VpsSimulationStep, max_penetration), 128);
@@ -245,6 +286,9 @@ mod tests {
         assert_eq!(offset_of!(VpsSimulationStep, queries), 152);
         assert_eq!(offset_of!(VpsSimulationStep, limited), 156);
         assert_eq!(offset_of!(VpsSimulationStep, out_of_time), 160);
-        assert_eq!(size_of::<VpsSimulationStep>(), 168);
+        assert_eq!(offset_of!(VpsSimulationStep, energy_gain), 168);
+        assert_eq!(offset_of!(VpsSimulationStep, energy_removed), 176);
+        assert_eq!(offset_of!(VpsSimulationStep, backed_off), 184);
+        assert_eq!(size_of::<VpsSimulationStep>(), 192);
     }
 }

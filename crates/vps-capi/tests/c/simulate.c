@@ -7,10 +7,10 @@
  * POSES: one device pose per line, "tx ty tz qw qx qy qz", 1 ms apart. The object starts at
  * the first. For each pose one line is printed:
  *
- *   step fx fy fz tx ty tz points_in_contact limited
+ *   step fx fy fz tx ty tz points_in_contact limited energy_gain backed_off
  *
- * the force to render, the object's position after the step, with the doubles as %.17g (they
- * read back to the same bits). Exit status: 0 all good, 1 a step failed, 2 bad usage or files.
+ * the force to render, the object's position after the step, its energy balance, with the
+ * doubles as %.17g (they read back to the same bits). Exit status: 0 all good, 1 a step failed, 2 bad usage or files.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -109,8 +109,9 @@ int main(int argc, char **argv) {
         haptic_callback(&st, poses[i]);
         if (st.failed) break;
         const vps_simulation_step_result *r = &st.last;
-        printf("%zu %.17g %.17g %.17g %.17g %.17g %.17g %llu %d\n", i, st.force[0], st.force[1], st.force[2],
-               r->pose[0], r->pose[1], r->pose[2], (unsigned long long)r->points_in_contact, (int)r->limited);
+        printf("%zu %.17g %.17g %.17g %.17g %.17g %.17g %llu %d %.17g %d\n", i, st.force[0], st.force[1],
+               st.force[2], r->pose[0], r->pose[1], r->pose[2], (unsigned long long)r->points_in_contact,
+               (int)r->limited, r->energy_gain, (int)r->backed_off);
     }
     if (st.failed) fprintf(stderr, "simulate: %s\n", st.err);
 
