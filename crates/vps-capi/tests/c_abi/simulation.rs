@@ -4,6 +4,20 @@
 use super::*;
 use vps::haptics::simulation::{MassProperties, Simulation, SimulationParams};
 
+/// The device at step `i`: moved towards the box's face x = 1 at 10 voxels per step, from
+/// x = 1.8 to 0.9, then held there.
+fn pushed_in(i: usize) -> PoseArray {
+    [
+        (1.8 - i as f64 * 10.0 * VOXEL).max(0.9),
+        0.05,
+        -0.02,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+    ]
+}
+
 /// The ball pointshell pushed into the box's face x = 1 at 10 voxels per step, then held 0.5
 /// inside: the C callback's forces and positions are this process's, the object never goes
 /// deeper than a quarter voxel, and the device is pulled back.
@@ -11,19 +25,7 @@ use vps::haptics::simulation::{MassProperties, Simulation, SimulationParams};
 fn e_a_c_device_callback_gets_the_same_bits_as_this_process() {
     let o = objects();
     let files = write_files(&o.box_vm, &o.ball_shell);
-    let poses: Vec<PoseArray> = (0..150)
-        .map(|i| {
-            [
-                (1.8 - i as f64 * 10.0 * VOXEL).max(0.9),
-                0.05,
-                -0.02,
-                1.0,
-                0.0,
-                0.0,
-                0.0,
-            ]
-        })
-        .collect();
+    let poses: Vec<PoseArray> = (0..150).map(pushed_in).collect();
     let poses_file = write_poses(files.dir.path(), "hand.txt", &poses);
     let out = run(c_command(&programs().simulate)
         .arg(&files.vxm)
@@ -93,7 +95,7 @@ fn e_given_inertia_through_the_c_struct_is_the_librarys() {
     let (vxm, vps_path) = (c_path(&files.vxm), c_path(&files.vps));
     let mut err = [0 as std::ffi::c_char; 256];
     let rows = [0.3, 0.01, 0.0, 0.01, 0.4, -0.02, 0.0, -0.02, 0.5];
-    let start = [1.8, 0.05, -0.02, 1.0, 0.0, 0.0, 0.0];
+    let start = pushed_in(0);
     // SAFETY: valid paths, a buffer of `err.len()` bytes, handles closed below.
     let (vm, ps) = unsafe {
         (
@@ -122,15 +124,7 @@ fn e_given_inertia_through_the_c_struct_is_the_librarys() {
     let pose = |p: [f64; 7]| Pose::new([p[0], p[1], p[2]], [p[3], p[4], p[5], p[6]]).unwrap();
     let mut lib = Simulation::new(&voxmap, &shell, body, SimulationParams::for_body(&body), pose(start)).unwrap();
     for i in 0..40 {
-        let device = [
-            (1.8 - i as f64 * 10.0 * VOXEL).max(0.9),
-            0.05,
-            -0.02,
-            1.0,
-            0.0,
-            0.0,
-            0.0,
-        ];
+        let device = pushed_in(i);
         let mut out = VpsSimulationStep::default();
         // SAFETY: a live simulation stepped from this thread only, a writable result.
         let code = unsafe { vps_simulation_step(sim, device.as_ptr(), &mut out, err.as_mut_ptr(), err.len()) };
