@@ -1,10 +1,10 @@
 //! `vps.Simulation`: the haptic loop, one `step(device_pose)` per device sample
 //! (docs/HAPTICS.md, "The haptic loop").
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step};
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step};
 use vps::{CachedVoxmap, Pointshell, PointshellData, PointshellFile, Pose};
 
 use crate::contact::{penetration_of, pose_of};
@@ -103,7 +103,7 @@ fn start_on<S: PointshellData + ?Sized>(
     voxmap: &'static CachedVoxmap,
     shell: &'static S,
     mass: f64,
-    given: Option<(Option<DVec3>, DMat3)>,
+    given: Option<(&[f64], Option<DVec3>)>,
     start: Pose,
     configure: impl FnOnce(&MassProperties) -> PyResult<SimulationParams>,
 ) -> PyResult<Simulation<'static, S>> {
@@ -113,7 +113,8 @@ fn start_on<S: PointshellData + ?Sized>(
     let shell_body = MassProperties::of_shell(shell, mass);
     let body = match given {
         None => shell_body,
-        Some((centre, inertia)) => MassProperties::given(mass, centre.unwrap_or(shell_body.centre), inertia)
+        Some((inertia, centre)) => shell_body
+            .with_given(inertia, centre)
             .map_err(|e| PyValueError::new_err(e.to_string()))?,
     };
     let params = configure(&body)?;
@@ -159,14 +160,10 @@ impl PySimulation {
         if !(mass.is_finite() && mass > 0.0) {
             return Err(PyValueError::new_err(format!("mass must be > 0, got {mass}")));
         }
-        let given = match (inertia, centre_of_mass) {
-            (None, None) => None,
-            (None, Some(_)) => return Err(PyValueError::new_err("centre_of_mass needs inertia")),
-            (Some(i), centre) => Some((
-                centre.map(DVec3::from_array),
-                inertia_tensor(&i).map_err(|e| PyValueError::new_err(e.to_string()))?,
-            )),
-        };
+        if inertia.is_none() && centre_of_mass.is_some() {
+            return Err(PyValueError::new_err("centre_of_mass needs inertia"));
+        }
+        let given = inertia.as_deref().map(|i| (i, centre_of_mass.map(DVec3::from_array)));
         // SAFETY: both classes are frozen, so `get` gives a shared reference to data that
         // never moves (it lives in the Python object) and never changes. The references are
         // given the simulation's life: `sim` is dropped before the two `Py` fields that keep

@@ -7,7 +7,7 @@
 use std::ffi::{c_char, c_double, c_int};
 
 use glam::DVec3;
-use vps::haptics::simulation::{inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams};
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams};
 use vps::PointshellFile;
 
 use super::*;
@@ -105,13 +105,8 @@ fn simulation_params(
     let body = if p.inertia.iter().all(|&x| x == 0.0) {
         shell_body
     } else {
-        let inertia = inertia_tensor(&p.inertia).map_err(|e| e.to_string())?;
-        let centre = if p.has_centre_of_mass == 1 {
-            DVec3::from_array(p.centre_of_mass)
-        } else {
-            shell_body.centre
-        };
-        MassProperties::given(mass, centre, inertia).map_err(|e| e.to_string())?
+        let centre = (p.has_centre_of_mass == 1).then(|| DVec3::from_array(p.centre_of_mass));
+        shell_body.with_given(&p.inertia, centre).map_err(|e| e.to_string())?
     };
     let mut params = SimulationParams::for_body(&body);
     let contact = contact_params(&VpsContactParams {

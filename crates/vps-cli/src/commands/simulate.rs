@@ -9,9 +9,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::json;
 
-use vps::haptics::simulation::{
-    inertia_tensor, Coupling, MassProperties, Simulation, SimulationParams, Step, TESTED_STIFFNESS_RATIO,
-};
+use vps::haptics::simulation::{Coupling, MassProperties, Simulation, SimulationParams, Step, TESTED_STIFFNESS_RATIO};
 use vps::haptics::trajectory::read_trajectory;
 use vps::Pose;
 
@@ -107,13 +105,14 @@ fn body_of(a: &SimulateArgs, shell: &impl vps::PointshellData) -> Result<MassPro
     let Some(Numbers(components)) = &a.inertia else {
         return Ok(shell_body);
     };
-    let inertia = inertia_tensor(components).context("--inertia")?;
     let centre = match a.centre_of_mass.as_ref().map(|n| &n.0[..]) {
-        None => shell_body.centre,
-        Some(&[x, y, z]) => glam::DVec3::new(x, y, z),
+        None => None,
+        Some(&[x, y, z]) => Some(glam::DVec3::new(x, y, z)),
         Some(other) => bail!("--centre-of-mass is \"x,y,z\", got {} numbers", other.len()),
     };
-    MassProperties::given(a.mass, centre, inertia).context("--mass, --inertia and --centre-of-mass")
+    shell_body
+        .with_given(components, centre)
+        .context("--mass, --inertia and --centre-of-mass")
 }
 
 /// Run the loop over the device's poses.

@@ -463,7 +463,12 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
         let (keep, made) = ledger.passive_speed(self, &st, &advance.contact);
         st.velocity *= keep;
         st.angular_velocity *= keep;
-        let mut energy_gain = ledger.excess_of(self, &st, &advance.contact);
+        // Untouched, the balance is the one just computed.
+        let mut energy_gain = if keep < 1.0 {
+            ledger.excess_of(self, &st, &advance.contact)
+        } else {
+            made
+        };
         let mut advance = advance;
         let mut backed_off = false;
         if energy_gain > BACK_OFF_EXCESS * (self.kinetic_energy(&st) + ledger.energy).max(1.0) {

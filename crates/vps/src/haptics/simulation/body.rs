@@ -46,6 +46,13 @@ impl MassProperties {
         MassProperties { mass, centre, inertia }
     }
 
+    /// These properties (a shell's, say) with a given inertia tensor, from its components as
+    /// [`inertia_tensor`] reads them, and a given centre of mass, or this one: what the
+    /// command line, the C ABI and Python take. Checked as [`MassProperties::given`].
+    pub fn with_given(self, inertia: &[f64], centre: Option<DVec3>) -> Result<MassProperties, HapticsError> {
+        MassProperties::given(self.mass, centre.unwrap_or(self.centre), inertia_tensor(inertia)?)
+    }
+
     /// Given mass properties: `mass`, the centre of mass `centre` (pointshell frame) and the
     /// inertia tensor `inertia` about it, which must be symmetric and positive definite.
     ///
