@@ -1,5 +1,6 @@
 //! The signed distances a voxmap carries, against the brute force: the distance over every
-//! triangle, with the side of the solid-angle winding number, clamped to the reach.
+//! triangle, with the side of the solid-angle winding number, clamped to the reach; beyond the
+//! first outer layer, the bound of the layer.
 
 use glam::DVec3;
 use vps::generate::signed_distance::signed_distances;
@@ -7,7 +8,7 @@ use vps::geometry::closest::closest_point;
 use vps::grid::{local_index, BRICK, BRICK_SHIFT};
 use vps::reference::winding::WindingReference;
 use vps::shapes;
-use vps::voxmap::{distance_reach, DISTANCE_STEP};
+use vps::voxmap::{distance_is_read, distance_reach, outer_distance, DISTANCE_STEP};
 use vps::{voxelize, Mesh, Triangle, VoxelizeParams};
 
 /// How the stored field of one shape compares with the exact one.
@@ -30,7 +31,9 @@ struct Voxel {
     stored: f64,
 }
 
-/// Every stored voxel of the voxmap of `tris` against the brute force.
+/// Every stored voxel of the voxmap of `tris` against the brute force, those whose distance a
+/// contact reads: the others must hold the bound of their layer, which the exact distance
+/// does not pass.
 fn voxels(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Vec<Voxel> {
     let mesh = Mesh::from_triangles("m", tris).unwrap();
     let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(voxel_size, layers)).unwrap();
@@ -57,10 +60,19 @@ fn voxels(tris: Vec<Triangle>, voxel_size: f64, layers: u8) -> Vec<Voxel> {
                         .fold(f64::INFINITY, f64::min)
                         .sqrt()
                         .min(reach);
+                    let local = local_index(x, y, z);
+                    let stored = dist[local] as f64 * DISTANCE_STEP;
+                    let value = brick.values[local];
+                    if !distance_is_read(value) {
+                        assert_eq!(dist[local], outer_distance(value), "value {value} at {v:?}");
+                        assert!(-distance <= stored, "{distance} from the mesh at {v:?}, value {value}");
+                        assert!(!reference.is_inside(v), "value {value} inside at {v:?}");
+                        continue;
+                    }
                     out.push(Voxel {
                         inside: reference.is_inside(v),
                         distance,
-                        stored: dist[local_index(x, y, z)] as f64 * DISTANCE_STEP,
+                        stored,
                     });
                 }
             }
@@ -141,7 +153,7 @@ fn stored_distances_are_the_exact_signed_distances_on_closed_shapes() {
     ];
     for (name, tris) in cases {
         let a = agreement(tris, 0.25, 3);
-        assert!(a.voxels > 10_000, "{name}: {a:?}");
+        assert!(a.voxels > 3_000, "{name}: {a:?}");
         assert_eq!(a.wrong_side, 0, "{name}: {a:?}");
         assert_eq!(a.worst, 0.0, "{name}: {a:?}");
     }
@@ -149,8 +161,8 @@ fn stored_distances_are_the_exact_signed_distances_on_closed_shapes() {
 
 /// Where one part's faces are buried in another, the side of a surface voxel near where the
 /// buried faces meet the outer surface is decided by a rule of thumb (see
-/// `vps::generate::signed_distance`), which is wrong on a few of them: measured 108 of 32,256
-/// voxels here. Those are surface voxels (within √3/2 of a triangle), so the error stays below
+/// `vps::generate::signed_distance`), which is wrong on a few of them: measured 107 of the 7,887
+/// voxels here whose distances a contact reads. Those are surface voxels (within √3/2 of a triangle), so the error stays below
 /// two voxels' distance; everywhere else the distance is exact.
 #[test]
 fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
@@ -158,11 +170,8 @@ fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
     let mut tris = shapes::sphere(c, 2.5, 16, 32);
     tris.extend(shapes::cuboid(DVec3::new(0.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)));
     let a = agreement(tris, 0.25, 3);
-    assert!(a.voxels > 10_000, "{a:?}");
-    assert!(
-        a.wrong_side * 200 <= a.voxels,
-        "more than 0.5 % on the wrong side: {a:?}"
-    );
+    assert!(a.voxels > 5_000, "{a:?}");
+    assert!(a.wrong_side * 50 <= a.voxels, "more than 2 % on the wrong side: {a:?}");
     assert!(a.worst_wrong_side <= 0.75f64.sqrt() + 1e-9, "{a:?}");
     assert!(a.worst <= 0.5 + 1e-3, "{a:?}");
 }

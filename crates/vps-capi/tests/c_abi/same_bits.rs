@@ -57,7 +57,7 @@ fn a_the_layer_penetration_gets_the_same_bits_as_this_process() {
         CachedVoxmap::open(&files.vxm).unwrap(),
         PointshellFile::open(&files.vps).unwrap(),
     );
-    assert!(vm.has_distances(), "the test files are version 2");
+    assert!(vm.has_distances(), "the test files have distances");
     let want = in_process_with(&vm, &shell, &poses, Penetration::Layers);
     assert_replies_eq(
         &contact_c_with(&["-l"], &files.vxm, &files.vps, &poses_file),

@@ -65,7 +65,7 @@ pub struct VoxelizeArgs {
     /// Directory for spill files with --memory-limit (default: the output's directory).
     #[arg(long, requires = "memory_limit")]
     tmp_dir: Option<PathBuf>,
-    /// Also store every stored voxel's signed distance to the mesh (a version 2 file), for
+    /// Also store every stored voxel's signed distance to the mesh (a version 3 file), for
     /// the haptic query's interpolated penetration; in memory or out of core alike.
     #[arg(long)]
     distance: bool,

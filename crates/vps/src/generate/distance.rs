@@ -60,7 +60,7 @@ pub fn layer_distances(mesh: &Mesh, voxmap: &Voxmap) -> LayerDistances {
     LayerDistances {
         bricks: (0..bricks.len())
             .into_par_iter()
-            .map(|i| near.nearest(i, &bricks[i]).distance)
+            .map(|i| near.nearest(i, &bricks[i], i8::MIN).distance)
             .collect(),
     }
 }
@@ -177,11 +177,12 @@ impl NearTriangles {
         }
     }
 
-    /// The distance of every voxel of the layers of `brick`, the `i`-th of the bricks this
-    /// was made for, and a nearest triangle.
-    pub(super) fn nearest(&self, i: usize, brick: &Brick) -> NearestOfBrick {
+    /// The distance of every voxel of the layers of `brick` whose value is at least `lowest`,
+    /// `brick` the `i`-th of the bricks this was made for, and a nearest triangle.
+    pub(super) fn nearest(&self, i: usize, brick: &Brick, lowest: i8) -> NearestOfBrick {
         let (grid, triangles, planes) = (&self.grid, &self.triangles, &self.planes);
         let layers = self.layers as i32;
+        let skip = |v: i8| (v as i32).abs() > layers || v < lowest;
         let reach = reach(self.layers);
         let mut out = Box::new([f32::INFINITY; BRICK_VOXELS]);
         let mut nearest_triangle = Box::new([u32::MAX; BRICK_VOXELS]);
@@ -199,7 +200,7 @@ impl NearTriangles {
                     (l, local_index(l[0], l[1], l[2]))
                 })
             };
-            if voxels().all(|(_, local)| (brick.values[local] as i32).abs() > layers) {
+            if voxels().all(|(_, local)| skip(brick.values[local])) {
                 continue;
             }
             let centre =
@@ -230,7 +231,7 @@ impl NearTriangles {
             near.retain(|n| n.0 <= keep * (1.0 + 1e-12) + 1e-12);
             near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             for (l, local) in voxels() {
-                if (brick.values[local] as i32).abs() > layers {
+                if skip(brick.values[local]) {
                     continue;
                 }
                 let c = DVec3::new(base[0] + l[0] as f64, base[1] + l[1] as f64, base[2] + l[2] as f64) + 0.5;

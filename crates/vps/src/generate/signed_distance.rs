@@ -31,7 +31,9 @@
 //! winding number's level set, which crosses it.
 //!
 //! Values beyond the layers, and tiles, are at least the reach away (see
-//! [`crate::voxmap::distance_reach`]): they hold ± the reach.
+//! [`crate::voxmap::distance_reach`]): they hold ± the reach. Voxels beyond the first outer
+//! layer, whose distances no contact reads, are not measured: they hold the bound of their
+//! layer ([`crate::voxmap::outer_distance`]).
 
 use std::ops::Range;
 
@@ -43,7 +45,9 @@ use super::pointshell::normals::{Neighbours, Window};
 use crate::geometry::closest::closest_point;
 use crate::grid::{BRICK_SHIFT, BRICK_VOXELS};
 use crate::mesh::Mesh;
-use crate::voxmap::{distance_reach, far_distance, BrickDistances, Voxmap, DISTANCE_STEP};
+use crate::voxmap::{
+    distance_is_read, distance_reach, far_distance, outer_distance, BrickDistances, Voxmap, DISTANCE_STEP,
+};
 
 /// Stored bricks per task: enough for consecutive bricks to share their neighbours' look-ups,
 /// as in the pointshell's normals.
@@ -79,12 +83,16 @@ pub fn signed_distances_of(mesh: &Mesh, voxmap: &Voxmap, own: Range<usize>) -> V
         .flat_map_iter(|(run, bricks)| {
             let (mut neighbours, mut window) = (Neighbours::new(voxmap), Window::new(voxmap));
             bricks.iter().enumerate().map(move |(j, brick)| {
-                let near = candidates.nearest(run * BRICKS_PER_RUN + j, brick);
+                let near = candidates.nearest(run * BRICKS_PER_RUN + j, brick, -1);
                 let b = grid.brick_coords(brick.key);
                 window.gather(&mut neighbours, b);
                 let base = b.map(|c| (c << BRICK_SHIFT) as f64);
                 let mut out: BrickDistances = [0; BRICK_VOXELS];
                 for (local, (&value, o)) in brick.values.iter().zip(out.iter_mut()).enumerate() {
+                    if !distance_is_read(value) {
+                        *o = outer_distance(value);
+                        continue;
+                    }
                     let d = near.distance[local] as f64;
                     if value != 0 {
                         *o = if d.is_finite() {

@@ -40,7 +40,7 @@ pub enum StorageError {
         found: Vec<u8>,
     },
     /// The file is a `.vxm` of a version this build cannot read.
-    #[error("{path} is {kind} format version {found}; this build reads version {supported}")]
+    #[error("{path} is {kind} format version {found}; this build reads versions up to {supported}")]
     UnsupportedVersion {
         /// The kind of file, e.g. ".vxm voxmap".
         kind: &'static str,

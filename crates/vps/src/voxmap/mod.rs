@@ -50,6 +50,39 @@ pub fn far_distance(layers: u8, value: i8) -> i16 {
     }
 }
 
+/// Whether a contact can read the distance of a voxel of value `value`: it lies within the
+/// first outer layer (`value ≥ −1`).
+///
+/// Why the others are never read: the distance of a point is the blend of the eight voxel
+/// centres around it, which are 26-neighbours of each other, whose values differ by at most one
+/// (`docs/VOXMAP.md`, "Layers"). If one of the eight is at `≤ −2`, all are at `≤ −1`, outside,
+/// with negative distances, and so is the blend: the point is not in contact, whatever those
+/// distances are. Voxmaps keep [`outer_distance`] for them instead, which files need not store.
+#[inline]
+pub fn distance_is_read(value: i8) -> bool {
+    value >= -1
+}
+
+/// The distance, in steps of [`DISTANCE_STEP`], that a voxel of value `value ≤ −2` holds in
+/// place of its own (see [`distance_is_read`]): the nearest to the surface its layer allows,
+/// `−(|value| − ½)` voxels. Its chessboard distance to the nearest surface voxel is `|value|`, so
+/// on one axis its centre is at least that less half a voxel from any point of the mesh. For
+/// the far-outside value `−(layers + 1)` this is [`far_distance`], minus the reach.
+#[inline]
+pub fn outer_distance(value: i8) -> i16 {
+    ((value as f64 + 0.5) / DISTANCE_STEP) as i16
+}
+
+/// Replace the distances of the voxels of `values` that no contact reads by their
+/// [`outer_distance`].
+pub fn bound_outer_distances(values: &BrickValues, distances: &mut BrickDistances) {
+    for (&v, d) in values.iter().zip(distances.iter_mut()) {
+        if !distance_is_read(v) {
+            *d = outer_distance(v);
+        }
+    }
+}
+
 /// A half-open range `[start, end)` of brick keys.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct KeyRange {
@@ -182,11 +215,23 @@ impl Voxmap {
 
     /// The same voxmap carrying the signed distances of its stored bricks' voxels, one array
     /// per brick in the order of [`Voxmap::bricks`]: the sub-voxel field that the haptic query
-    /// interpolates (`docs/VOXMAP.md`). Tiles need none: theirs is [`far_distance`].
+    /// interpolates (`docs/VOXMAP.md`). Tiles need none: theirs is [`far_distance`]. Voxels
+    /// beyond the first outer layer keep their [`outer_distance`] instead of the one given,
+    /// which no contact reads ([`distance_is_read`]), so that a voxmap is the same after a
+    /// round trip through a file, which does not store them.
     ///
     /// # Panics
     /// If there is not one array per stored brick.
-    pub fn with_distances(mut self, distances: Vec<BrickDistances>) -> Voxmap {
+    pub fn with_distances(self, mut distances: Vec<BrickDistances>) -> Voxmap {
+        for (brick, d) in self.bricks.iter().zip(&mut distances) {
+            bound_outer_distances(&brick.values, d);
+        }
+        self.with_distances_as_given(distances)
+    }
+
+    /// [`Voxmap::with_distances`] without the outer distances replaced: tests prove with it
+    /// that no contact reads them.
+    pub(crate) fn with_distances_as_given(mut self, distances: Vec<BrickDistances>) -> Voxmap {
         assert_eq!(
             distances.len(),
             self.bricks.len(),

@@ -250,7 +250,7 @@ fn write_fuzz_seeds() {
     let seeds = [
         ("ball", ball(1, 5.0)),
         ("ball-runs", ball(1, 16.0)),
-        ("ball-distances", ball_with_distances(1, 5.0)),
+        ("ball-distances", ball_with_distances(2, 5.0)),
         ("empty", Voxmap::from_parts(grid, 3, vec![], vec![])),
         (
             "tiles",

@@ -27,13 +27,20 @@ pub(crate) fn ball(layers: u8, radius: f64) -> Voxmap {
     Voxmap::from_signed_distance(grid, layers, |p| p.length() - radius)
 }
 
-/// [`ball`] carrying the exact signed distances of its stored voxels (a version 2 file).
+/// [`ball`] carrying the exact signed distances of its stored voxels (a version 3 file), those
+/// that no contact reads replaced by their bounds ([`Voxmap::with_distances`]).
 pub(crate) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
     let vm = ball(layers, radius);
+    let distances = ball_distances(&vm, radius);
+    vm.with_distances(distances)
+}
+
+/// The exact signed distances of every stored voxel of `vm`, the [`ball`] of `radius`, clamped
+/// to the reach.
+pub(crate) fn ball_distances(vm: &Voxmap, radius: f64) -> Vec<vps::voxmap::BrickDistances> {
     let grid = *vm.grid();
-    let reach = vps::voxmap::distance_reach(layers);
-    let distances = vm
-        .bricks()
+    let reach = vps::voxmap::distance_reach(vm.layers());
+    vm.bricks()
         .iter()
         .map(|b| {
             let base = grid.brick_coords(b.key).map(|c| c * 8);
@@ -44,8 +51,7 @@ pub(crate) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
                 (phi / vps::voxmap::DISTANCE_STEP).round() as i16
             })
         })
-        .collect();
-    vm.with_distances(distances)
+        .collect()
 }
 
 pub(crate) fn assert_same(file: &VoxmapFile, vm: &Voxmap) {

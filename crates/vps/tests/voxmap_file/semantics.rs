@@ -60,15 +60,15 @@ pub(super) fn exercise(file: &VoxmapFile) {
     }
 }
 
-/// A voxmap with distances is written as version 2 and read back whole, distances included;
-/// one without stays version 1; a version 2 header naming codec 1 is refused.
+/// A voxmap with distances is written as version 3 and read back whole, distances included;
+/// one without stays version 1; a version 3 header naming codec 1 or 2 is refused.
 #[test]
-fn version_2_carries_the_distances_and_version_1_stays() {
+fn version_3_carries_the_distances_and_version_1_stays() {
     let dir = tmp();
     let with = ball_with_distances(2, 9.0);
     let (path, bytes) = written(dir.path(), &with);
     let file = VoxmapFile::open(&path).unwrap();
-    assert_eq!(file.header().version, 2);
+    assert_eq!(file.header().version, 3);
     assert!(file.header().has_distances());
     assert_same(&file, &with);
     assert_eq!(file.to_voxmap().unwrap(), with);
@@ -92,15 +92,17 @@ fn version_2_carries_the_distances_and_version_1_stays() {
     assert!(!vps::CachedVoxmap::open(&path1).unwrap().has_distances());
     assert!(bytes.len() > bytes1.len());
 
-    let mut h = header_of(&bytes);
-    h.codec = 1;
-    h.header_crc = h.compute_crc();
-    let mut bad = bytes.clone();
-    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
-    let e = VoxmapFile::from_bytes(&bad).unwrap_err();
-    assert!(matches!(e, StorageError::InvalidHeader { field: "codec", .. }), "{e}");
+    for codec in [1, 2] {
+        let mut h = header_of(&bytes);
+        h.codec = codec;
+        h.header_crc = h.compute_crc();
+        let mut bad = bytes.clone();
+        bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+        let e = VoxmapFile::from_bytes(&bad).unwrap_err();
+        assert!(matches!(e, StorageError::InvalidHeader { field: "codec", .. }), "{e}");
+    }
 
-    // A writer refuses distances out of range, and bricks without distances in version 2.
+    // A writer refuses distances out of range, and bricks without distances in version 3.
     let mut w = VoxmapWriter::create(dir.path().join("b.vxm"), *with.grid(), 2).unwrap();
     w.with_distances().unwrap();
     assert!(w.push_bricks(with.bricks()).is_err());
@@ -383,4 +385,64 @@ fn forged_header_base() -> &'static [u8] {
         let dir = tmp();
         written(dir.path(), &ball(1, 5.0)).1
     })
+}
+
+/// The bytes of a version 2 file of `vm` whose payloads hold `distances` whole, as the builds
+/// before version 3 wrote them: the header and the run table of `v3`, the version 3 file of
+/// `vm`, around payloads of codec 2.
+fn version_2_of(v3: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances]) -> Vec<u8> {
+    use vps::storage::format::{encode_brick_with_distances, new_compressor, IndexEntry};
+    let mut h = header_of(v3);
+    let runs = v3[h.runs_offset as usize..].to_vec();
+    let mut c = new_compressor().unwrap();
+    let mut out = vec![0u8; HEADER_BYTES];
+    let mut index = Vec::new();
+    for (b, d) in vm.bricks().iter().zip(distances) {
+        let p = encode_brick_with_distances(&mut c, &b.values, d).unwrap();
+        index.push(IndexEntry {
+            key: b.key,
+            offset: out.len() as u64,
+            len: p.len() as u32,
+            crc: crc32fast::hash(&p),
+        });
+        out.extend(p);
+    }
+    h.payload_bytes = (out.len() - HEADER_BYTES) as u64;
+    out.resize(out.len().next_multiple_of(8), 0);
+    h.index_offset = out.len() as u64;
+    out.extend_from_slice(bytemuck::cast_slice(&index));
+    h.runs_offset = out.len() as u64;
+    out.extend_from_slice(&runs);
+    h.file_bytes = out.len() as u64;
+    h.index_crc = crc32fast::hash(bytemuck::cast_slice(&index));
+    h.runs_crc = crc32fast::hash(&runs);
+    (h.version, h.codec) = (2, 2);
+    h.header_crc = h.compute_crc();
+    out[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
+    out
+}
+
+/// A version 2 file, which stored every distance, still opens and verifies, and reads as the
+/// same voxmap in memory: the distances no contact reads replaced by the bounds of their
+/// layers, as version 3 gives them. Written again, it is a smaller version 3 file.
+#[test]
+fn a_version_2_file_reads_as_the_voxmap_in_memory() {
+    let dir = tmp();
+    let vm = ball_with_distances(3, 9.0);
+    let (_, v3) = written(dir.path(), &vm);
+    let exact = ball_distances(&vm, 9.0);
+    let v2 = version_2_of(&v3, &vm, &exact);
+    let file = VoxmapFile::from_bytes(&v2).unwrap();
+    assert_eq!(file.header().version, 2);
+    assert!(file.header().has_distances());
+    file.verify().unwrap();
+    assert_eq!(file.to_voxmap().unwrap(), vm);
+    // What the reader replaced: exact distances beyond the first outer layer.
+    let replaced = exact
+        .iter()
+        .zip(vm.distances().unwrap())
+        .map(|(e, d)| e.iter().zip(d).filter(|(e, d)| e != d).count())
+        .sum::<usize>();
+    assert!(replaced > 1_000, "{replaced} distances replaced");
+    assert!(v3.len() < v2.len(), "{} against {}", v3.len(), v2.len());
 }

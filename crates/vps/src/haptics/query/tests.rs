@@ -157,3 +157,58 @@ fn a_query_on_the_calling_thread_gives_the_pools_bits() {
     }
     assert!(in_contact >= 5, "only {in_contact} poses in contact");
 }
+
+/// No contact reads the distance of a voxel beyond the first outer layer
+/// ([`crate::voxmap::distance_is_read`]), which files do not store: with any negative numbers
+/// there instead of their bounds, every query gives the same bits, through the tree and by
+/// brute force, on meshes with faces on voxel faces, cracks, flips and open sheets.
+#[test]
+fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
+    use crate::shapes::{cracked_sphere, flipped, open_box, torus};
+    use crate::voxmap::distance_is_read;
+    let mut ball_and_box = sphere(DVec3::new(-0.6, 0.0, 0.0), 0.75, 24, 48);
+    ball_and_box.extend(cuboid(DVec3::new(0.4, -0.5, -0.3), DVec3::new(1.2, 0.6, 0.5)));
+    let mut soup = cracked_sphere(DVec3::new(-0.5, 0.1, 0.0), 0.7, 16, 32, 0.02);
+    soup.extend(flipped(&torus(DVec3::new(0.7, 0.0, 0.0), 0.45, 0.15, 24, 12)));
+    soup.extend(open_box(DVec3::new(-0.3, -0.9, -0.6), DVec3::new(0.9, -0.5, 0.6)));
+    let shell = ball_shell(0.3, 12, 0.05);
+    let mut rng = SplitMix(23);
+    let (mut replaced, mut in_contact) = (0u64, 0u32);
+    for tris in [ball_and_box, soup] {
+        let mesh = Mesh::from_triangles("static", tris).unwrap();
+        let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.1, LAYERS as u8)).unwrap();
+        let bounded = signed_distances(&mesh, &vm);
+        let reach = (LAYERS as f64 + 0.5) * 32.0;
+        let mut other = bounded.clone();
+        for (brick, d) in vm.bricks().iter().zip(&mut other) {
+            for (&v, d) in brick.values.iter().zip(d.iter_mut()) {
+                if !distance_is_read(v) {
+                    *d = -(rng.range(0.0, reach) as i16);
+                    replaced += 1;
+                }
+            }
+        }
+        let a = CachedVoxmap::in_memory(vm.clone().with_distances(bounded));
+        let b = CachedVoxmap::in_memory(vm.with_distances_as_given(other));
+        for _ in 0..40 {
+            let t = [rng.range(-1.6, 1.6), rng.range(-1.2, 1.2), rng.range(-1.0, 1.0)];
+            let q = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize();
+            let pose = Pose::new(t, [q.x.abs() + 0.1, q.y, q.z, 0.3]).unwrap();
+            let params = ContactParams::default();
+            let mut got = [
+                super::contact(&a, &shell, &pose, &params).unwrap(),
+                super::contact(&b, &shell, &pose, &params).unwrap(),
+                super::contact_brute_force(&a, &shell, &pose, &params).unwrap(),
+                super::contact_brute_force(&b, &shell, &pose, &params).unwrap(),
+            ];
+            for c in &mut got {
+                c.micros = 0.0;
+            }
+            assert_eq!(got[0], got[1], "tree at {t:?}");
+            assert_eq!(got[2], got[3], "brute force at {t:?}");
+            in_contact += (got[0].points_in_contact > 0) as u32;
+        }
+    }
+    assert!(replaced > 10_000, "only {replaced} distances replaced");
+    assert!(in_contact >= 20, "only {in_contact} poses of 80 in contact");
+}

@@ -9,15 +9,21 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::grid::BRICK_VOXELS;
-use crate::voxmap::{distance_reach, BrickDistances, BrickValues, DISTANCE_STEP};
+use crate::voxmap::{
+    bound_outer_distances, distance_is_read, distance_reach, outer_distance, BrickDistances, BrickValues, DISTANCE_STEP,
+};
 
 /// First eight bytes of every `.vxm` file. The `\r\n` and `\x1a` catch transfers that
 /// mangle line endings or stop at an end-of-file character, as in PNG.
 pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
 /// The newest format version, which this crate writes for a voxmap with signed distances:
-/// every payload holds the brick's values and its distances (codec 2).
-pub const VERSION: u32 = 2;
+/// every payload holds the brick's values and the distances a contact can read (codec 3).
+pub const VERSION: u32 = 3;
+
+/// The version of the first files with distances, which this crate still reads: every
+/// payload holds the brick's values and all its distances (codec 2).
+pub const VERSION_ALL_DISTANCES: u32 = 2;
 
 /// The version this crate writes for a voxmap without distances, and still reads: layer
 /// values only (codec 1). Its files are byte for byte what earlier builds wrote.
@@ -44,13 +50,22 @@ pub const CODEC_ZSTD_DELTA: u8 = 1;
 /// distances' (see [`encode_brick_with_distances`]).
 pub const CODEC_ZSTD_DELTA_DISTANCE: u8 = 2;
 
-/// The codec of each version.
+/// Codec id of version 3: as [`CODEC_ZSTD_DELTA_DISTANCE`], with the distances of the voxels
+/// a contact reads only (see [`encode_brick_with_read_distances`]).
+pub const CODEC_ZSTD_DELTA_READ_DISTANCE: u8 = 3;
+
+/// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
 pub fn codec_of(version: u32) -> u8 {
-    if version == VERSION {
-        CODEC_ZSTD_DELTA_DISTANCE
-    } else {
-        CODEC_ZSTD_DELTA
+    match version {
+        VERSION => CODEC_ZSTD_DELTA_READ_DISTANCE,
+        VERSION_ALL_DISTANCES => CODEC_ZSTD_DELTA_DISTANCE,
+        _ => CODEC_ZSTD_DELTA,
     }
+}
+
+/// Whether files of `version` carry distances.
+pub fn has_distances(version: u32) -> bool {
+    version == VERSION || version == VERSION_ALL_DISTANCES
 }
 
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
@@ -64,21 +79,21 @@ pub const ZSTD_LEVEL: i32 = 1;
 /// anything longer is corruption; the bound also caps the reader's frame buffer.
 pub const MAX_PAYLOAD_BYTES: usize = 1024;
 
-/// Largest payload of codec 2, whose frames hold 1,536 bytes (zstd's worst case is under
-/// 1,600).
+/// Largest payload of codecs 2 and 3, whose frames hold at most 1,536 bytes (zstd's worst
+/// case is under 1,600).
 pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
 
 /// The payload limit of `codec`.
 pub fn max_payload_bytes(codec: u8) -> usize {
-    if codec == CODEC_ZSTD_DELTA_DISTANCE {
-        MAX_PAYLOAD_BYTES_DISTANCE
-    } else {
+    if codec == CODEC_ZSTD_DELTA {
         MAX_PAYLOAD_BYTES
+    } else {
+        MAX_PAYLOAD_BYTES_DISTANCE
     }
 }
 
 /// Bytes a codec-2 frame decompresses to: 512 value residuals, then the 512 low bytes and the
-/// 512 high bytes of the distance residuals.
+/// 512 high bytes of the distance residuals. A codec-3 frame holds at most as many.
 const DISTANCE_FRAME_BYTES: usize = 3 * BRICK_VOXELS;
 
 /// The magic number that starts a zstd frame; payloads store frames without it.
@@ -303,6 +318,28 @@ pub fn encode_brick_with_distances(
     payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_DISTANCE)
 }
 
+/// Compress one brick with its distances into a codec-3 payload: the value residuals, then
+/// the low and the high bytes of the distance residuals of the voxels a contact reads
+/// ([`distance_is_read`]), in index order. The others are predicted from, and decode to,
+/// their [`outer_distance`], whatever `distances` holds for them.
+pub fn encode_brick_with_read_distances(
+    compressor: &mut zstd::bulk::Compressor<'_>,
+    values: &BrickValues,
+    distances: &BrickDistances,
+) -> std::io::Result<Vec<u8>> {
+    let mut d = *distances;
+    bound_outer_distances(values, &mut d);
+    let mut raw = Vec::with_capacity(DISTANCE_FRAME_BYTES);
+    raw.extend_from_slice(&predict(values));
+    let residuals: Vec<u16> = (0..BRICK_VOXELS)
+        .filter(|&i| distance_is_read(values[i]))
+        .map(|i| zigzag(d[i].wrapping_sub(prediction(&d, i))))
+        .collect();
+    raw.extend(residuals.iter().map(|&r| r as u8));
+    raw.extend(residuals.iter().map(|&r| (r >> 8) as u8));
+    payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_DISTANCE)
+}
+
 /// A zstd compressor set up as the writer uses it.
 pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
     let mut c = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
@@ -345,6 +382,18 @@ pub enum DecodeError {
 
 /// Decompress `payload` (a frame without its magic) into `out`, which it must fill exactly.
 fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeError> {
+    let n = decompress_into(payload, out, max)?;
+    if n != out.len() {
+        return Err(DecodeError::Malformed(format!(
+            "decompressed to {n} bytes instead of {}",
+            out.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Decompress `payload` (a frame without its magic) into the start of `out`: its length.
+fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, DecodeError> {
     if payload.len() > max {
         return Err(DecodeError::Malformed(format!(
             "payload of {} bytes exceeds the limit of {max}",
@@ -370,13 +419,7 @@ fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeEr
                 .map_err(|e| format!("zstd: {e}"))
         })
         .map_err(DecodeError::Malformed)?;
-    if n != out.len() {
-        return Err(DecodeError::Malformed(format!(
-            "decompressed to {n} bytes instead of {}",
-            out.len()
-        )));
-    }
-    Ok(())
+    Ok(n)
 }
 
 /// The values of value residuals, checked within `[-(layers+1), layers+1]`.
@@ -417,7 +460,54 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     for (i, r) in r.iter_mut().enumerate() {
         *r = unzigzag(raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8);
     }
-    let d = unpredict(&r);
+    let mut d = checked_distances(unpredict(&r), layers)?;
+    // Version 2 stored them all; a voxmap holds the bounds of those no contact reads.
+    bound_outer_distances(&values, &mut d);
+    Ok((values, d))
+}
+
+/// Decompress one payload of codec 3: the values, checked as [`decode_brick`] does, and the
+/// distances, those of the voxels a contact reads from the payload, each within ± the reach of
+/// `layers` (in steps), the others their [`outer_distance`].
+pub fn decode_brick_with_read_distances(
+    payload: &[u8],
+    layers: u8,
+) -> Result<(BrickValues, BrickDistances), DecodeError> {
+    let mut raw = [0u8; DISTANCE_FRAME_BYTES];
+    let n = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
+    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
+    let values = checked_values(residuals, layers)?;
+    let read = values.iter().filter(|&&v| distance_is_read(v)).count();
+    if n != BRICK_VOXELS + 2 * read {
+        return Err(DecodeError::Malformed(format!(
+            "decompressed to {n} bytes instead of {} for {read} distances",
+            BRICK_VOXELS + 2 * read
+        )));
+    }
+    let (low, high) = raw[BRICK_VOXELS..n].split_at(read);
+    // The prediction undone row by row, as `unpredict`, the voxels not stored taking their
+    // bound.
+    let mut d = [0i16; BRICK_VOXELS];
+    let mut next = 0;
+    for row in 0..BRICK_VOXELS / 8 {
+        let start = row * 8;
+        let mut acc = prediction(&d, start);
+        for x in start..start + 8 {
+            acc = if distance_is_read(values[x]) {
+                let r = unzigzag(low[next] as u16 | (high[next] as u16) << 8);
+                next += 1;
+                acc.wrapping_add(r)
+            } else {
+                outer_distance(values[x])
+            };
+            d[x] = acc;
+        }
+    }
+    Ok((values, checked_distances(d, layers)?))
+}
+
+/// `d`, if every distance is within ± the reach of `layers` (in steps).
+fn checked_distances(d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
     let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
     // Checked without branches first, as the values are.
     let beyond = |x: i16| (x as i32).abs() > limit;
@@ -428,19 +518,19 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
             d[voxel]
         )));
     }
-    Ok((values, d))
+    Ok(d)
 }
 
-/// Decode a payload of `codec`: the values, and the distances for codec 2.
+/// Decode a payload of `codec`: the values, and the distances for codecs 2 and 3.
 pub fn decode_payload(
     payload: &[u8],
     layers: u8,
     codec: u8,
 ) -> Result<(BrickValues, Option<BrickDistances>), DecodeError> {
-    if codec == CODEC_ZSTD_DELTA_DISTANCE {
-        decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d)))
-    } else {
-        decode_brick(payload, layers).map(|v| (v, None))
+    match codec {
+        CODEC_ZSTD_DELTA_READ_DISTANCE => decode_brick_with_read_distances(payload, layers).map(|(v, d)| (v, Some(d))),
+        CODEC_ZSTD_DELTA_DISTANCE => decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d))),
+        _ => decode_brick(payload, layers).map(|v| (v, None)),
     }
 }
 
@@ -526,10 +616,19 @@ mod tests {
             *x = steps((along - 2.0).max(-3.5));
         }
         d[5] = steps(2.7);
+        v[5] = 3;
         let p = encode_brick_with_distances(&mut c, &v, &d).unwrap();
         assert!(p.len() < 300, "{}", p.len());
-        assert_eq!(decode_brick_with_distances(&p, 3).unwrap(), (v, d));
-        assert_eq!(decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE).unwrap(), (v, Some(d)));
+        // Read back with the bounds of the voxels no contact reads, as a voxmap holds them.
+        let mut bounded = d;
+        bound_outer_distances(&v, &mut bounded);
+        assert_ne!(bounded, d);
+        assert_eq!((bounded[5], bounded[100], bounded[0]), (d[5], d[100], steps(-2.5)));
+        assert_eq!(decode_brick_with_distances(&p, 3).unwrap(), (v, bounded));
+        assert_eq!(
+            decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE).unwrap(),
+            (v, Some(bounded))
+        );
         // With 2 layers the values of -3 are in range, the distance of 2.7 voxels is not.
         assert!(matches!(decode_brick_with_distances(&p, 2), Err(DecodeError::Malformed(m)) if m.contains("distance")));
         assert!(matches!(
@@ -539,5 +638,57 @@ mod tests {
         assert!(decode_brick(&p, 3).is_err());
         assert!(decode_brick_with_distances(&p[..p.len() - 1], 3).is_err());
         assert!(decode_brick_with_distances(&[0u8; 3000], 3).is_err());
+    }
+
+    /// Codec 3 stores the distances of the voxels at −1 and above only, decodes the others to
+    /// their bounds, and refuses a frame whose length does not match its values.
+    #[test]
+    fn read_distance_codec_round_trips_and_rejects_junk() {
+        let mut c = new_compressor().unwrap();
+        let mut rng = crate::shapes::SplitMix(5);
+        for round in 0..200 {
+            // Random values of 3 layers (mostly far outside in the first rounds) and random
+            // distances within the reach.
+            let mut v = [0i8; BRICK_VOXELS];
+            let mut d = [0i16; BRICK_VOXELS];
+            for (v, d) in v.iter_mut().zip(d.iter_mut()) {
+                *v = if rng.below(200) < round {
+                    rng.below(9) as i8 - 4
+                } else {
+                    -4
+                };
+                *d = rng.below(225) as i16 - 112;
+            }
+            let p = encode_brick_with_read_distances(&mut c, &v, &d).unwrap();
+            let mut want = d;
+            bound_outer_distances(&v, &mut want);
+            assert_eq!(decode_brick_with_read_distances(&p, 3).unwrap(), (v, want));
+            assert_eq!(
+                decode_payload(&p, 3, CODEC_ZSTD_DELTA_READ_DISTANCE).unwrap(),
+                (v, Some(want))
+            );
+            // The distances of 3 layers reach 3.5 voxels (112 steps), not those of 2.
+            if d.iter().zip(&v).any(|(&d, &v)| distance_is_read(v) && d.abs() > 80) {
+                assert!(decode_brick_with_read_distances(&p, 2).is_err());
+            }
+        }
+        // All far outside: nothing but the values is stored.
+        let v = [-4i8; BRICK_VOXELS];
+        let p = encode_brick_with_read_distances(&mut c, &v, &[7; BRICK_VOXELS]).unwrap();
+        assert!(p.len() < 32, "{}", p.len());
+        let (_, d) = decode_brick_with_read_distances(&p, 3).unwrap();
+        assert!(d.iter().all(|&d| d == -112), "{d:?}");
+        // A frame of other than 512 bytes and two for each voxel at −1 and above.
+        let mut one_more = predict(&v).to_vec();
+        one_more.extend([0, 0]);
+        for raw in [&one_more[..], &one_more[..BRICK_VOXELS - 1]] {
+            let p = payload_of(&mut c, raw, MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
+            assert!(matches!(
+                decode_brick_with_read_distances(&p, 3),
+                Err(DecodeError::Malformed(_))
+            ));
+        }
+        assert!(decode_brick_with_read_distances(&[0u8; 3000], 3).is_err());
+        assert!(decode_brick_with_read_distances(&[], 3).is_err());
     }
 }

@@ -34,9 +34,9 @@ use crate::voxmap::{
     Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
 };
 use format::{
-    align8, codec_of, decode_payload, encode_brick, encode_brick_with_distances, max_payload_bytes, new_compressor,
-    DecodeError, IndexEntry, RawHeader, RunEntry, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION,
-    VERSION_LAYERS, VERSION_OFFSET,
+    align8, codec_of, decode_payload, encode_brick, encode_brick_with_read_distances, has_distances, max_payload_bytes,
+    new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC,
+    RUN_ENTRY_BYTES, VERSION, VERSION_ALL_DISTANCES, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
 pub(crate) use reader::Backing;

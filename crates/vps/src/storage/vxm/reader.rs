@@ -24,9 +24,9 @@ pub struct Header {
 }
 
 impl Header {
-    /// Whether the file's bricks carry signed distances (version 2).
+    /// Whether the file's bricks carry signed distances (versions 2 and 3).
     pub fn has_distances(&self) -> bool {
-        self.version == VERSION
+        has_distances(self.version)
     }
 }
 
@@ -228,7 +228,7 @@ impl VoxmapFile {
         self.read_entry_full(i, e).map(|(values, _)| values)
     }
 
-    /// [`VoxmapFile::read_entry`], with the brick's distances in a version 2 file.
+    /// [`VoxmapFile::read_entry`], with the brick's distances in a file that has them.
     pub(super) fn read_entry_full(
         &self,
         i: usize,
@@ -290,7 +290,7 @@ impl VoxmapFile {
         Ok(BrickData::Tile(self.tile_value(runs, key)))
     }
 
-    /// What brick `key` holds, with its distances in a version 2 file: as [`VoxmapFile::brick`]
+    /// What brick `key` holds, with its distances in a file that has them: as [`VoxmapFile::brick`]
     /// with one decompression for both. Shared, as a cache keeps it: one allocation a brick
     /// (a `Box` turned into an `Arc` made two, and copied the brick).
     pub fn stored_brick(&self, key: u64) -> Result<BrickSlot<Arc<StoredBrick>>, StorageError> {
@@ -362,7 +362,7 @@ impl VoxmapFile {
     }
 
     /// The structure checks of `verify`, then every brick decoded in parallel; bricks, and
-    /// their distances in a version 2 file, are kept if `keep`.
+    /// their distances in a file that has them, are kept if `keep`.
     #[allow(clippy::type_complexity)]
     pub(super) fn scan(&self, keep: bool) -> Result<(VerifyReport, Vec<Brick>, Vec<BrickDistances>), StorageError> {
         let path = &self.path;

@@ -99,7 +99,7 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
-    /// Whether bricks come with distances: version 2 (see [`VoxmapWriter::with_distances`]).
+    /// Whether bricks come with distances: version 3 (see [`VoxmapWriter::with_distances`]).
     pub(super) distances: bool,
 }
 
@@ -167,7 +167,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Write a version 2 file, whose bricks carry signed distances: bricks must then come
+    /// Write a version 3 file, whose bricks carry signed distances: bricks must then come
     /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
     pub fn with_distances(&mut self) -> Result<(), StorageError> {
         if self.index.len() > 0 {
@@ -284,7 +284,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// A version 2 file takes its bricks with their distances only.
+    /// A version 3 file takes its bricks with their distances only.
     fn check_layers_only(&self) -> Result<(), StorageError> {
         if self.distances {
             return Err(self.invalid("this file's bricks carry distances: use push_bricks_with_distances".into()));
@@ -292,9 +292,11 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Append many bricks and their signed distances (one array per brick) to a version 2
+    /// Append many bricks and their signed distances (one array per brick) to a version 3
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
-    /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]).
+    /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]). Only
+    /// those a contact reads are stored ([`crate::voxmap::distance_is_read`]): the file gives
+    /// the others their [`crate::voxmap::outer_distance`], as [`Voxmap::with_distances`] does.
     pub fn push_bricks_with_distances(
         &mut self,
         bricks: &[Brick],
@@ -331,7 +333,7 @@ impl VoxmapWriter {
                 .map_init(new_compressor, |c, (b, d)| {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     let (surface, inner) = tally(&b.values);
-                    Ok((encode_brick_with_distances(c, &b.values, d)?, surface, inner))
+                    Ok((encode_brick_with_read_distances(c, &b.values, d)?, surface, inner))
                 })
                 .collect();
             for (b, e) in batch.iter().zip(encoded) {
@@ -477,7 +479,7 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 2 when it
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 3 when it
 /// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;
