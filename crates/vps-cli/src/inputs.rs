@@ -76,7 +76,12 @@ pub fn open_voxmap(path: &Path) -> Result<VoxmapFile> {
 }
 
 /// A voxmap for haptic queries; a pointshell given in its place is named as the mix-up it is.
+///
+/// Also starts the thread pool, without waiting for it: its threads start while the files are
+/// opened, instead of in the first query (0.5–1 ms, `docs/PERFORMANCE.md`). The library leaves
+/// that to the application, which may want to configure the pool first.
 pub fn open_cached_voxmap(path: &Path) -> Result<CachedVoxmap> {
+    rayon::spawn_broadcast(|_| {});
     if is_pointshell(path) {
         bail!(
             "{} is a pointshell (.vps), not a voxmap: give the voxmap first, then the pointshell",

@@ -77,7 +77,10 @@ impl Cursor<'_> {
         if let (Ok(x), Ok(y), Ok(z)) = (i32::try_from(b[0]), i32::try_from(b[1]), i32::try_from(b[2])) {
             let cells = [[x], [y], [z]];
             let crossing = crosses_brick([x, y, z]);
-            self.gather_run(cells.map(|c| c[0] >> BRICK_SHIFT), crossing, &cells, 0..1, &mut c);
+            if self.gather_run(cells.map(|c| c[0] >> BRICK_SHIFT), crossing, &cells, 0..1, &mut c) {
+                // Eight equal corners blend to their value, bit for bit.
+                return c[0][0] as f64 * DISTANCE_STEP;
+            }
         }
         blend(c.map(|c| c[0] as f64), t.to_array()) * DISTANCE_STEP
     }
@@ -124,6 +127,9 @@ impl Cursor<'_> {
             crosses[k] = crosses_brick([cells[0][k], cells[1][k], cells[2][k]]);
         }
         let mut c = [[0i32; N]; 8];
+        // The runs whose eight corners are one value, which only `c[0]` holds so far.
+        let (mut flat, mut flats) = ([(0, 0); N], 0);
+        let mut all_flat = true;
         let mut k = 0;
         while k < N {
             let key = keys[k];
@@ -137,8 +143,28 @@ impl Cursor<'_> {
                 end += 1;
             }
             let brick = [0, 1, 2].map(|a| cells[a][k] >> BRICK_SHIFT);
-            self.gather_run(brick, crossing, &cells, k..end, &mut c);
+            if self.gather_run(brick, crossing, &cells, k..end, &mut c) {
+                flat[flats] = (k, end);
+                flats += 1;
+            } else {
+                all_flat = false;
+            }
             k = end;
+        }
+        // Eight equal corners blend to their value, bit for bit (`a + (a − a)·t`): a batch of
+        // such points (deep inside, far outside) skips the blends. Otherwise the flat runs'
+        // value goes to all eight corners, and every point is blended.
+        if all_flat {
+            for k in 0..N {
+                out[k] = if inside[k] { c[0][k] as f64 * DISTANCE_STEP } else { 0.0 };
+            }
+            return;
+        }
+        for &(start, end) in &flat[..flats] {
+            let v = c[0][start];
+            for row in &mut c[1..] {
+                row[start..end].fill(v);
+            }
         }
         for k in 0..N {
             let d = blend(std::array::from_fn(|j| c[j][k] as f64), [t[0][k], t[1][k], t[2][k]]) * DISTANCE_STEP;
@@ -148,7 +174,8 @@ impl Cursor<'_> {
 
     /// The corners of the cells `run` of `cells`, whose lower corners all lie in brick
     /// `brick`, into `c[..][run]`: from one look-up of the brick when no cell is `crossing`
-    /// its upper faces, else of its apron.
+    /// its upper faces, else of its apron. True if they are all one value, which then only
+    /// `c[0][run]` holds.
     #[inline(always)]
     fn gather_run<const N: usize>(
         &mut self,
@@ -157,25 +184,24 @@ impl Cursor<'_> {
         cells: &[[i32; N]; 3],
         run: Range<usize>,
         c: &mut [[i32; N]; 8],
-    ) {
+    ) -> bool {
         let in_grid = (0..3).all(|a| brick[a] >= 0 && (brick[a] as u64) < self.brick_dims[a]);
         let origin = brick.map(|x| x << BRICK_SHIFT);
         let fill = |c: &mut [[i32; N]; 8], v: i16| {
-            for row in c.iter_mut() {
-                row[run.clone()].fill(v as i32);
-            }
+            c[0][run.clone()].fill(v as i32);
+            true
         };
         if in_grid && !crossing {
             // Every cell lies in the brick (seven cells in eight along each axis): read them
             // there, without an apron, which costs eight brick look-ups to build.
             match self.brick_source(brick.map(|x| x as u32)) {
-                BrickSource::Uniform(v) => fill(c, v),
+                BrickSource::Uniform(v) => return fill(c, v),
                 BrickSource::Stored(ds) => gather::<N, { BRICK as usize }>(ds, origin, cells, run, c),
             }
-            return;
+            return false;
         }
         match self.apron(brick.map(i64::from), in_grid) {
-            Some(Err(flat)) => fill(c, flat),
+            Some(Err(flat)) => return fill(c, flat),
             Some(Ok(apron)) => gather::<N, APRON_EDGE>(apron, origin, cells, run, c),
             None => {
                 for k in run {
@@ -187,6 +213,7 @@ impl Cursor<'_> {
                 }
             }
         }
+        false
     }
 
     /// The apron of brick `b` (see [`APRON_EDGE`]), built on first use, or its one distance
