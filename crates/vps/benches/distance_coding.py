@@ -36,7 +36,8 @@ def frames_of(path):
     data = open(path, "rb").read()
     version, codec = struct.unpack_from("<I", data, 8)[0], data[63]
     if version != 2 or codec != 2:
-        raise SystemExit(f"{path}: version {version}, codec {codec}: not a file with distances")
+        raise SystemExit(f"{path}: version {version}, codec {codec}: this script reads version 2 files "
+                         "(all distances stored); version 3 stores those of values -1 and above only")
     bricks, index_offset = struct.unpack_from("<Q", data, 80)[0], struct.unpack_from("<Q", data, 120)[0]
     out = []
     for b in range(bricks):

@@ -162,7 +162,8 @@ fn stored_distances_are_the_exact_signed_distances_on_closed_shapes() {
 /// Where one part's faces are buried in another, the side of a surface voxel near where the
 /// buried faces meet the outer surface is decided by a rule of thumb (see
 /// `vps::generate::signed_distance`), which is wrong on a few of them: measured 107 of the 7,887
-/// voxels here whose distances a contact reads. Those are surface voxels (within √3/2 of a triangle), so the error stays below
+/// voxels here whose distances a contact reads (108 of all 32,256 stored voxels before those
+/// beyond the first outer layer were left unmeasured). Those are surface voxels (within √3/2 of a triangle), so the error stays below
 /// two voxels' distance; everywhere else the distance is exact.
 #[test]
 fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
@@ -171,7 +172,7 @@ fn overlapping_parts_have_few_surface_voxels_on_the_wrong_side() {
     tris.extend(shapes::cuboid(DVec3::new(0.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)));
     let a = agreement(tris, 0.25, 3);
     assert!(a.voxels > 5_000, "{a:?}");
-    assert!(a.wrong_side * 50 <= a.voxels, "more than 2 % on the wrong side: {a:?}");
+    assert!(a.wrong_side <= 120, "more than 120 voxels on the wrong side: {a:?}");
     assert!(a.worst_wrong_side <= 0.75f64.sqrt() + 1e-9, "{a:?}");
     assert!(a.worst <= 0.5 + 1e-3, "{a:?}");
 }

@@ -443,3 +443,63 @@ fn objects_fill_with_vertices_on_column_centres() {
         }
     }
 }
+
+/// Every voxel of value ≤ −2 whose 26 neighbours are all < 0, in `vm`: what lets a contact
+/// leave the distances of those voxels unread (`vps::voxmap::distance_is_read`). The
+/// neighbours beyond the grid are far outside.
+fn check_no_outer_voxel_touches_the_solid(vm: &Voxmap) -> Result<usize, TestCaseError> {
+    let (grid, mut checked) = (*vm.grid(), 0);
+    for b in vm.bricks() {
+        let base = grid.brick_coords(b.key).map(|c| c * 8);
+        for (local, &v) in b.values.iter().enumerate() {
+            if v > -2 {
+                continue;
+            }
+            checked += 1;
+            let l = [local as u32 & 7, (local as u32 >> 3) & 7, local as u32 >> 6];
+            let at = [0, 1, 2].map(|a| (base[a] + l[a]) as i64);
+            for d in 0..27 {
+                let n = [d % 3, (d / 3) % 3, d / 9].map(|s| s as i64 - 1);
+                let q = [0, 1, 2].map(|a| at[a] + n[a]);
+                if (0..3).any(|a| q[a] < 0 || q[a] >= grid.dims[a] as i64) {
+                    continue;
+                }
+                let w = vm.value(q.map(|c| c as u32));
+                prop_assert!(w < 0, "voxel {:?} of value {} next to {:?} of value {}", at, v, q, w);
+            }
+        }
+    }
+    Ok(checked)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(30))]
+
+    /// No voxel of value ≤ −2 has a 26-neighbour ≥ 0, whatever the fill, on random soups with
+    /// vertices anywhere and on the voxel lattice (faces on voxel faces), and boxes.
+    #[test]
+    fn no_outer_voxel_touches_the_solid(
+        tris in prop::collection::vec(arb_triangle(12.0), 1..30),
+        lattice in prop::collection::vec(arb_lattice_triangle(8), 0..20),
+        boxes in prop::collection::vec(((-10i32..5, -10i32..5, -10i32..5), 1i32..8), 0..3),
+        layers in 2u8..7,
+        voxel in prop::sample::select(vec![0.25, 0.5, 0.37, 1.0]),
+    ) {
+        let mut mesh = Mesh::default();
+        mesh.push_object("soup", tris).unwrap();
+        let lattice: Vec<Triangle> = lattice.into_iter().filter(|t| !vps::mesh::is_degenerate(t)).collect();
+        if !lattice.is_empty() {
+            mesh.push_object("lattice", lattice).unwrap();
+        }
+        for (i, (lo, size)) in boxes.into_iter().enumerate() {
+            let lo = DVec3::new(lo.0 as f64, lo.1 as f64, lo.2 as f64) * 0.5;
+            mesh.push_object(&format!("box{i}"), shapes::cuboid(lo, lo + size as f64 * 0.5)).unwrap();
+        }
+        prop_assume!(!mesh.triangles.is_empty());
+        for fill in [Fill::Winding, Fill::Objects, Fill::Scene] {
+            let (vm, _) = voxelize(&mesh, &VoxelizeParams { fill, ..VoxelizeParams::new(voxel, layers) }).unwrap();
+            let checked = check_no_outer_voxel_touches_the_solid(&vm)?;
+            prop_assert!(checked > 0, "{:?}: no voxel of value -2 or less", fill);
+        }
+    }
+}

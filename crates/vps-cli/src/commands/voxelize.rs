@@ -65,8 +65,9 @@ pub struct VoxelizeArgs {
     /// Directory for spill files with --memory-limit (default: the output's directory).
     #[arg(long, requires = "memory_limit")]
     tmp_dir: Option<PathBuf>,
-    /// Also store every stored voxel's signed distance to the mesh (a version 3 file), for
-    /// the haptic query's interpolated penetration; in memory or out of core alike.
+    /// Also store the signed distance to the mesh of every stored voxel a contact can read
+    /// (value -1 and above; a version 3 file), for the haptic query's interpolated
+    /// penetration; in memory or out of core alike.
     #[arg(long)]
     distance: bool,
     /// Print the summary as one JSON object.

@@ -54,10 +54,11 @@ pub fn far_distance(layers: u8, value: i8) -> i16 {
 /// first outer layer (`value ≥ −1`).
 ///
 /// Why the others are never read: the distance of a point is the blend of the eight voxel
-/// centres around it, which are 26-neighbours of each other, whose values differ by at most one
-/// (`docs/VOXMAP.md`, "Layers"). If one of the eight is at `≤ −2`, all are at `≤ −1`, outside,
-/// with negative distances, and so is the blend: the point is not in contact, whatever those
-/// distances are. Voxmaps keep [`outer_distance`] for them instead, which files need not store.
+/// centres around it, which are 26-neighbours of each other, and no voxel `≤ −2` has a
+/// neighbour `≥ 0` (`docs/VOXMAP.md`, "Layers"). If one of the eight is at `≤ −2`, all are at
+/// `≤ −1`, outside, with negative distances, and so is the blend: the point is not in contact,
+/// whatever those distances are. Voxmaps keep [`outer_distance`] for them instead, which files
+/// need not store.
 #[inline]
 pub fn distance_is_read(value: i8) -> bool {
     value >= -1

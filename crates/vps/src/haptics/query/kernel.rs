@@ -180,10 +180,25 @@ fn distance_batches(
     for (b, ((ps, ns), ws)) in batches.enumerate() {
         let len = ps.len();
         let (mut p, mut n, mut w) = ([[0.0f32; BATCH]; 3], [[0.0f32; BATCH]; 3], [0.0f32; BATCH]);
-        for k in 0..len {
-            (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
-            (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
-            w[k] = ws[k];
+        // A full batch through arrays of known length, which the compiler unrolls without
+        // bounds checks (the brute force in deep contact took 1.1–1.2× as long point by
+        // point); the last, shorter batch point by point.
+        if let (Ok(ps), Ok(ns), Ok(ws)) = (
+            <&[Vec3; BATCH]>::try_from(ps),
+            <&[Vec3; BATCH]>::try_from(ns),
+            <&[f32; BATCH]>::try_from(ws),
+        ) {
+            for k in 0..BATCH {
+                (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
+                (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
+            }
+            w = *ws;
+        } else {
+            for k in 0..len {
+                (p[0][k], p[1][k], p[2][k]) = (ps[k].x, ps[k].y, ps[k].z);
+                (n[0][k], n[1][k], n[2][k]) = (ns[k].x, ns[k].y, ns[k].z);
+                w[k] = ws[k];
+            }
         }
         let mut d = [0.0f64; BATCH];
         if let Some(cur) = cur.as_deref_mut() {

@@ -365,7 +365,8 @@ thread_local! {
 /// Why a payload did not decode to a valid brick.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum DecodeError {
-    /// The payload is not a zstd frame of exactly 512 bytes (or is too long to be one).
+    /// The payload is not a zstd frame of the codec's length (or is too long to be one), or a
+    /// distance lies beyond the reach.
     #[error("{0}")]
     Malformed(String),
     /// The payload decodes, but one value is outside `[-(layers+1), layers+1]`.
@@ -450,7 +451,8 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeErr
 }
 
 /// Decompress one payload of codec 2: the values, checked as [`decode_brick`] does, and the
-/// distances, each within ± the reach of `layers` (in steps).
+/// distances, each within ± the reach of `layers` (in steps); those that no contact reads
+/// replaced by their [`outer_distance`], as version 3 gives them.
 pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; DISTANCE_FRAME_BYTES];
     decompress(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
