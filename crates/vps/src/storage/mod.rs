@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 pub use temp::{directory_of, write_atomically};
 pub(crate) use vxm::Backing;
-pub use vxm::{format, slice};
+pub use vxm::{codec, format, slice};
 pub use vxm::{write_voxmap, BrickData, Header, VerifyReport, VoxmapFile, VoxmapWriter, WriteReport};
 
 /// Errors in reading or writing a `.vxm` or `.vps` file. Each names the file and what is wrong.

@@ -391,7 +391,8 @@ fn forged_header_base() -> &'static [u8] {
 /// before version 3 wrote them: the header and the run table of `v3`, the version 3 file of
 /// `vm`, around payloads of codec 2.
 fn version_2_of(v3: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances]) -> Vec<u8> {
-    use vps::storage::format::{encode_brick_with_distances, new_compressor, IndexEntry};
+    use vps::storage::codec::{encode_brick_with_distances, new_compressor};
+    use vps::storage::format::IndexEntry;
     let mut h = header_of(v3);
     let runs = v3[h.runs_offset as usize..].to_vec();
     let mut c = new_compressor().unwrap();

@@ -11,6 +11,7 @@
 //! target and renames it over the target when complete, so a crash leaves either the old
 //! file or the new one, and readers that have the old one mapped keep reading it.
 
+pub mod codec;
 pub mod format;
 mod header;
 mod reader;
@@ -33,10 +34,10 @@ use crate::voxmap::{
     far_distance, inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues, KeyRange, StoredBrick,
     Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
 };
+use codec::{decode_payload, encode_brick, encode_brick_with_read_distances, new_compressor, DecodeError};
 use format::{
-    align8, codec_of, decode_payload, encode_brick, encode_brick_with_read_distances, has_distances, max_payload_bytes,
-    new_compressor, DecodeError, IndexEntry, RawHeader, RunEntry, HEADER_BYTES, INDEX_ENTRY_BYTES, MAGIC,
-    RUN_ENTRY_BYTES, VERSION, VERSION_ALL_DISTANCES, VERSION_LAYERS, VERSION_OFFSET,
+    align8, codec_of, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
+    INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION, VERSION_ALL_DISTANCES, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
 pub(crate) use reader::Backing;
