@@ -74,6 +74,16 @@ pub fn outer_distance(value: i8) -> i16 {
     ((value as f64 + 0.5) / DISTANCE_STEP) as i16
 }
 
+/// Whether `distance` (in steps) lies on the side of the surface that `value` says, for a
+/// voxel whose distance a contact reads: positive inside (`value ≥ 1`), negative outside
+/// (`value = −1`), either on the surface (0). A voxel no triangle touches has its centre more
+/// than half a voxel from the mesh, so its distance is never 0; and a contact's proof that a
+/// voxel of −1 adds nothing ([`distance_is_read`]) needs it negative.
+#[inline]
+pub fn distance_on_its_side(value: i8, distance: i16) -> bool {
+    !distance_is_read(value) || value == 0 || (value > 0 && distance > 0) || (value < 0 && distance < 0)
+}
+
 /// Replace the distances of the voxels of `values` that no contact reads by their
 /// [`outer_distance`].
 pub fn bound_outer_distances(values: &BrickValues, distances: &mut BrickDistances) {

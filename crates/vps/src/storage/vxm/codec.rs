@@ -3,7 +3,8 @@
 
 use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{
-    bound_outer_distances, distance_is_read, distance_reach, outer_distance, BrickDistances, BrickValues, DISTANCE_STEP,
+    bound_outer_distances, distance_is_read, distance_on_its_side, distance_reach, outer_distance, BrickDistances,
+    BrickValues, DISTANCE_STEP,
 };
 
 use super::format::{
@@ -239,6 +240,13 @@ fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, 
             state.frame.clear();
             state.frame.extend_from_slice(&ZSTD_FRAME_MAGIC);
             state.frame.extend_from_slice(payload);
+            // One frame that is the whole payload and records its content size
+            // (`docs/FORMAT.md`): zstd alone would also take frames back to back, or
+            // skippable ones.
+            let whole = zstd::zstd_safe::find_frame_compressed_size(&state.frame).ok() == Some(state.frame.len());
+            if !whole || !matches!(zstd::zstd_safe::get_frame_content_size(&state.frame), Ok(Some(_))) {
+                return Err("not one zstd frame with its content size".into());
+            }
             state
                 .zstd
                 .decompress_to_buffer(&state.frame[..], &mut *out)
@@ -287,7 +295,7 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     for (i, r) in r.iter_mut().enumerate() {
         *r = unzigzag(raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8);
     }
-    let mut d = checked_distances(unpredict(&r), layers)?;
+    let mut d = checked_distances(&values, unpredict(&r), layers)?;
     // Version 2 stored them all; a voxmap holds the bounds of those no contact reads.
     bound_outer_distances(&values, &mut d);
     Ok((values, d))
@@ -330,18 +338,26 @@ pub fn decode_brick_with_read_distances(
             d[x] = acc;
         }
     }
-    Ok((values, checked_distances(d, layers)?))
+    let d = checked_distances(&values, d, layers)?;
+    Ok((values, d))
 }
 
-/// `d`, if every distance is within ± the reach of `layers` (in steps).
-fn checked_distances(d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
+/// `d`, the distances of a brick of `values`, if every one is within ± the reach of `layers`
+/// (in steps) and, where a contact reads it, on the side its value says
+/// ([`distance_on_its_side`]).
+fn checked_distances(values: &BrickValues, d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
     let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
     // Checked without branches first, as the values are.
-    let beyond = |x: i16| (x as i32).abs() > limit;
-    if d.iter().fold(false, |any, &x| any | beyond(x)) {
-        let voxel = d.iter().position(|&x| beyond(x)).unwrap_or(0);
+    let bad = |i: usize| (d[i] as i32).abs() > limit || !distance_on_its_side(values[i], d[i]);
+    if (0..BRICK_VOXELS).fold(false, |any, i| any | bad(i)) {
+        let voxel = (0..BRICK_VOXELS).position(bad).unwrap_or(0);
+        let why = if (d[voxel] as i32).abs() > limit {
+            format!("beyond the reach of {limit}")
+        } else {
+            format!("on the wrong side for its value {}", values[voxel])
+        };
         return Err(DecodeError::Malformed(format!(
-            "voxel {voxel} has distance {} steps, beyond the reach of {limit}",
+            "voxel {voxel} has distance {} steps, {why}",
             d[voxel]
         )));
     }
@@ -443,7 +459,7 @@ mod tests {
         let mut rng = crate::shapes::SplitMix(5);
         for round in 0..200 {
             // Random values of 3 layers (mostly far outside in the first rounds) and random
-            // distances within the reach.
+            // distances within the reach, on their values' sides (any for the others).
             let mut v = [0i8; BRICK_VOXELS];
             let mut d = [0i16; BRICK_VOXELS];
             for (v, d) in v.iter_mut().zip(d.iter_mut()) {
@@ -452,7 +468,12 @@ mod tests {
                 } else {
                     -4
                 };
-                *d = rng.below(225) as i16 - 112;
+                let magnitude = rng.below(112) as i16 + 1;
+                *d = match *v {
+                    -1 => -magnitude,
+                    1.. => magnitude,
+                    _ => rng.below(225) as i16 - 112,
+                };
             }
             let p = encode_brick_with_read_distances(&mut c, &v, &d).unwrap();
             let mut want = d;
@@ -465,6 +486,17 @@ mod tests {
             // The distances of 3 layers reach 3.5 voxels (112 steps), not those of 2.
             if d.iter().zip(&v).any(|(&d, &v)| distance_is_read(v) && d.abs() > 80) {
                 assert!(decode_brick_with_read_distances(&p, 2).is_err());
+            }
+            // A distance a contact reads on the wrong side of the surface is refused.
+            if let Some(i) = (0..BRICK_VOXELS).find(|&i| v[i] == 1 || v[i] == -1) {
+                let mut wrong = d;
+                wrong[i] = -wrong[i];
+                let p = encode_brick_with_read_distances(&mut c, &v, &wrong).unwrap();
+                let e = decode_brick_with_read_distances(&p, 3).unwrap_err();
+                assert!(
+                    matches!(&e, DecodeError::Malformed(m) if m.contains("wrong side")),
+                    "{e}"
+                );
             }
         }
         // All far outside: nothing but the values is stored.
@@ -485,5 +517,22 @@ mod tests {
         }
         assert!(decode_brick_with_read_distances(&[0u8; 3000], 3).is_err());
         assert!(decode_brick_with_read_distances(&[], 3).is_err());
+        // Exactly one frame, with its content size: not one followed by another, nor one
+        // without its size.
+        let p = payload_of(&mut c, &predict(&v), MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
+        assert!(decode_brick_with_read_distances(&p, 3).is_ok());
+        let mut two = p.clone();
+        two.extend_from_slice(&ZSTD_FRAME_MAGIC);
+        two.extend_from_slice(&p);
+        let mut without_size = zstd::bulk::Compressor::new(1).unwrap();
+        without_size.include_contentsize(false).unwrap();
+        let no_size = payload_of(&mut without_size, &predict(&v), MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
+        for p in [two, no_size] {
+            let e = decode_brick_with_read_distances(&p, 3).unwrap_err();
+            assert!(
+                matches!(&e, DecodeError::Malformed(m) if m.contains("one zstd frame")),
+                "{e}"
+            );
+        }
     }
 }

@@ -31,8 +31,8 @@ use super::temp::{self, TempOutput};
 use super::{mmap, StorageError};
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
 use crate::voxmap::{
-    far_distance, inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues, KeyRange, StoredBrick,
-    Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
+    distance_on_its_side, far_distance, inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues,
+    KeyRange, StoredBrick, Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
 };
 use codec::{decode_payload, encode_brick, encode_brick_with_read_distances, new_compressor, DecodeError};
 use format::{

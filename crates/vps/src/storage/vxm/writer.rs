@@ -294,7 +294,9 @@ impl VoxmapWriter {
 
     /// Append many bricks and their signed distances (one array per brick) to a version 3
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
-    /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]). Only
+    /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]), and
+    /// on the side its value says where a contact reads it
+    /// ([`crate::voxmap::distance_on_its_side`]). Only
     /// those a contact reads are stored ([`crate::voxmap::distance_is_read`]): the file gives
     /// the others their [`crate::voxmap::outer_distance`], as [`Voxmap::with_distances`] does.
     pub fn push_bricks_with_distances(
@@ -322,6 +324,14 @@ impl VoxmapWriter {
                     b.key,
                     d[i] as f64 * DISTANCE_STEP,
                     limit as f64 * DISTANCE_STEP
+                )));
+            }
+            if let Some(i) = (0..d.len()).find(|&i| !distance_on_its_side(b.values[i], d[i])) {
+                return Err(self.invalid(format!(
+                    "brick key {} voxel {i} has distance {} voxels, on the wrong side for its value {}",
+                    b.key,
+                    d[i] as f64 * DISTANCE_STEP,
+                    b.values[i]
                 )));
             }
             prev = Some(b.key);
