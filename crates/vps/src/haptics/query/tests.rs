@@ -160,8 +160,9 @@ fn a_query_on_the_calling_thread_gives_the_pools_bits() {
 
 /// No contact reads the distance of a voxel beyond the first outer layer
 /// ([`crate::voxmap::distance_is_read`]), which files do not store: with any negative numbers
-/// there instead of their bounds, every query gives the same bits, through the tree and by
-/// brute force, on meshes with faces on voxel faces, cracks, flips and open sheets.
+/// there instead of their bounds, every query gives the same bits, through the tree, by brute
+/// force, with a budget and in a sweep, on meshes with faces on voxel faces, cracks, flips and
+/// open sheets.
 #[test]
 fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
     use crate::shapes::{cracked_sphere, flipped, open_box, torus};
@@ -207,6 +208,24 @@ fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
             assert_eq!(got[0], got[1], "tree at {t:?}");
             assert_eq!(got[2], got[3], "brute force at {t:?}");
             in_contact += (got[0].points_in_contact > 0) as u32;
+            // A budget spent before the walk starts: every node of the first level stands for
+            // its points, each estimated from its centre's distance.
+            let budgeted = ContactParams {
+                budget: Some(std::time::Duration::ZERO),
+                ..params
+            };
+            let mut est = [&a, &b].map(|v| super::contact(v, &shell, &pose, &budgeted).unwrap());
+            (est[0].micros, est[1].micros) = (0.0, 0.0);
+            assert!(est[0].nodes_approximated > 0);
+            assert_eq!(est[0], est[1], "budgeted at {t:?}");
+            // A sweep from here a unit along x, for two depth limits.
+            let poses: Vec<Pose> = (0..8)
+                .map(|i| Pose::new([t[0] + i as f64 / 8.0, t[1], t[2]], [q.x.abs() + 0.1, q.y, q.z, 0.3]).unwrap())
+                .collect();
+            for limit in [0.0, 0.05] {
+                let swept = [&a, &b].map(|v| crate::haptics::sweep(v, &shell, &poses, &params, limit).unwrap());
+                assert_eq!(swept[0], swept[1], "sweep from {t:?}, limit {limit}");
+            }
         }
     }
     assert!(replaced > 10_000, "only {replaced} distances replaced");
