@@ -299,11 +299,7 @@ impl<'a, S: PointshellData + ?Sized> Simulation<'a, S> {
             shell,
             body,
             params,
-            state: BodyState {
-                pose: start,
-                velocity: DVec3::ZERO,
-                angular_velocity: DVec3::ZERO,
-            },
+            state: at_rest(start),
             last_points_tested: AtomicU64::new(contact.points_tested),
             contact,
             device_before: None,

@@ -342,26 +342,32 @@ pub fn decode_brick_with_read_distances(
     Ok((values, d))
 }
 
-/// `d`, the distances of a brick of `values`, if every one is within ± the reach of `layers`
-/// (in steps) and, where a contact reads it, on the side its value says
-/// ([`distance_on_its_side`]).
+/// `d`, the distances of a brick of `values`, if [`distance_fault`] finds none.
 fn checked_distances(values: &BrickValues, d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
+    match distance_fault(values, &d, layers) {
+        Some(fault) => Err(DecodeError::Malformed(fault)),
+        None => Ok(d),
+    }
+}
+
+/// What is wrong with the first of `d`, the distances of a brick of `values`, that lies beyond
+/// ± the reach of `layers` (in steps) or, where a contact reads it, on the other side than its
+/// value says ([`distance_on_its_side`]); `None` if none does. The writer and the reader hold
+/// distances to the same rules.
+pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u8) -> Option<String> {
     let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
     // Checked without branches first, as the values are.
     let bad = |i: usize| (d[i] as i32).abs() > limit || !distance_on_its_side(values[i], d[i]);
-    if (0..BRICK_VOXELS).fold(false, |any, i| any | bad(i)) {
-        let voxel = (0..BRICK_VOXELS).position(bad).unwrap_or(0);
-        let why = if (d[voxel] as i32).abs() > limit {
-            format!("beyond the reach of {limit}")
-        } else {
-            format!("on the wrong side for its value {}", values[voxel])
-        };
-        return Err(DecodeError::Malformed(format!(
-            "voxel {voxel} has distance {} steps, {why}",
-            d[voxel]
-        )));
+    if !(0..BRICK_VOXELS).fold(false, |any, i| any | bad(i)) {
+        return None;
     }
-    Ok(d)
+    let voxel = (0..BRICK_VOXELS).position(bad).unwrap_or(0);
+    let why = if (d[voxel] as i32).abs() > limit {
+        format!("beyond the reach of {limit}")
+    } else {
+        format!("on the wrong side for its value {}", values[voxel])
+    };
+    Some(format!("voxel {voxel} has distance {} steps, {why}", d[voxel]))
 }
 
 /// Decode a payload of `codec`: the values, and the distances for codecs 2 and 3.

@@ -31,10 +31,12 @@ use super::temp::{self, TempOutput};
 use super::{mmap, StorageError};
 use crate::grid::{split_voxel, Grid, BRICK, BRICK_SHIFT, BRICK_VOXELS, MAX_DIM};
 use crate::voxmap::{
-    distance_on_its_side, far_distance, inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues,
-    KeyRange, StoredBrick, Voxmap, VoxmapCounts, DISTANCE_STEP, MAX_LAYERS,
+    inside_value, outside_value, Brick, BrickDistances, BrickSlot, BrickValues, KeyRange, StoredBrick, Voxmap,
+    VoxmapCounts, MAX_LAYERS,
 };
-use codec::{decode_payload, encode_brick, encode_brick_with_read_distances, new_compressor, DecodeError};
+use codec::{
+    decode_payload, distance_fault, encode_brick, encode_brick_with_read_distances, new_compressor, DecodeError,
+};
 use format::{
     align8, codec_of, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
     INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION, VERSION_ALL_DISTANCES, VERSION_LAYERS, VERSION_OFFSET,

@@ -314,25 +314,11 @@ impl VoxmapWriter {
                 distances.len()
             )));
         }
-        let limit = far_distance(self.layers, 1);
         let mut prev = self.index.last_key;
         for (b, d) in bricks.iter().zip(distances) {
             self.check_brick(prev, b.key, &b.values)?;
-            if let Some(i) = d.iter().position(|&x| x.abs() > limit) {
-                return Err(self.invalid(format!(
-                    "brick key {} voxel {i} has distance {} voxels, beyond the reach {}",
-                    b.key,
-                    d[i] as f64 * DISTANCE_STEP,
-                    limit as f64 * DISTANCE_STEP
-                )));
-            }
-            if let Some(i) = (0..d.len()).find(|&i| !distance_on_its_side(b.values[i], d[i])) {
-                return Err(self.invalid(format!(
-                    "brick key {} voxel {i} has distance {} voxels, on the wrong side for its value {}",
-                    b.key,
-                    d[i] as f64 * DISTANCE_STEP,
-                    b.values[i]
-                )));
+            if let Some(fault) = distance_fault(&b.values, d, self.layers) {
+                return Err(self.invalid(format!("brick key {}: {fault}", b.key)));
             }
             prev = Some(b.key);
         }
