@@ -1,5 +1,6 @@
 //! `.vxm` lookups: opening a file, single-voxel lookups in stored bricks and in tiles, and
-//! whole-brick decompression. Prints the compressed size per stored voxel once.
+//! whole-brick decompression, of values alone and with distances (what the first contact
+//! query pays for each brick it touches). Prints the compressed size per stored voxel once.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -104,6 +105,25 @@ fn lookup(c: &mut Criterion) {
                 BrickData::Stored(v) => v[0],
                 BrickData::Tile(t) => t,
             }
+        })
+    });
+
+    // A ball voxelized with distances: a version 3 file, whose bricks a contact query decodes.
+    let ball = vps::Mesh::from_triangles("ball", vps::shapes::sphere(DVec3::ZERO, 60.0, 96, 192)).unwrap();
+    let params = vps::VoxelizeParams {
+        distances: true,
+        ..vps::VoxelizeParams::new(0.5, 5)
+    };
+    let (with_distances, _) = vps::voxelize(&ball, &params).unwrap();
+    let path = dir.path().join("distances.vxm");
+    write_voxmap(&path, &with_distances).unwrap();
+    let file = VoxmapFile::open(&path).unwrap();
+    let keys: Vec<u64> = with_distances.bricks().iter().map(|b| b.key).collect();
+    let mut i = 0;
+    g.bench_function("decompress_with_distances", |b| {
+        b.iter(|| {
+            i = (i + 7919) % keys.len();
+            file.stored_brick(black_box(keys[i])).unwrap()
         })
     });
     g.finish();

@@ -28,7 +28,10 @@ pub type BrickDistances = [i16; BRICK_VOXELS];
 /// [`MAX_LAYERS`]. Finer steps cost file size for nothing a hand can feel: on Nefertiti's
 /// `.vxm` (5 layers) 1/256 took 21.1 MB against 15.8 MB for 1/32 (8.3 MB without distances),
 /// as zstd cannot pack the rounding noise of the finer step.
-pub const DISTANCE_STEP: f64 = 1.0 / 32.0;
+pub const DISTANCE_STEP: f64 = 1.0 / STEPS_PER_VOXEL as f64;
+
+/// Steps of [`DISTANCE_STEP`] in a voxel.
+pub const STEPS_PER_VOXEL: i16 = 32;
 
 /// How far the stored distances reach, in voxels, for `layers` layers: half a voxel beyond the
 /// centres of the last layer. Distances are clamped to ±this: a voxel beyond the layers, or in
@@ -71,7 +74,7 @@ pub fn distance_is_read(value: i8) -> bool {
 /// the far-outside value `−(layers + 1)` this is [`far_distance`], minus the reach.
 #[inline]
 pub fn outer_distance(value: i8) -> i16 {
-    ((value as f64 + 0.5) / DISTANCE_STEP) as i16
+    i16::from(value) * STEPS_PER_VOXEL + STEPS_PER_VOXEL / 2
 }
 
 /// Whether `distance` (in steps) lies on the side of the surface that `value` says, for a

@@ -312,7 +312,8 @@ pub fn decode_brick_with_read_distances(
     let n = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
     let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
     let values = checked_values(residuals, layers)?;
-    let read = values.iter().filter(|&&v| distance_is_read(v)).count();
+    // Summed in u16 lanes: `filter().count()` widens every lane to 64 bits.
+    let read = values.iter().map(|&v| distance_is_read(v) as u16).sum::<u16>() as usize;
     if n != BRICK_VOXELS + 2 * read {
         return Err(DecodeError::Malformed(format!(
             "decompressed to {n} bytes instead of {} for {read} distances",
@@ -409,6 +410,25 @@ mod tests {
         assert!(decode_brick(&[], 2).is_err());
         assert!(decode_brick(&p[..p.len() - 1], 2).is_err());
         assert!(decode_brick(&[0u8; 2000], 2).is_err());
+    }
+
+    #[test]
+    fn the_bound_of_a_layer_is_half_a_voxel_inside_it() {
+        for v in i8::MIN..=-2 {
+            assert_eq!(outer_distance(v) as f64 * DISTANCE_STEP, v as f64 + 0.5, "value {v}");
+        }
+    }
+
+    #[test]
+    fn the_side_rule_reads_as_documented() {
+        for v in -8i8..=8 {
+            for d in -300i16..=300 {
+                // `docs/FORMAT.md`: positive for values ≥ 1, negative for −1, anything for 0
+                // and for the values whose distances no contact reads.
+                let documented = v <= -2 || v == 0 || (v >= 1 && d > 0) || (v == -1 && d < 0);
+                assert_eq!(distance_on_its_side(v, d), documented, "value {v}, distance {d}");
+            }
+        }
     }
 
     #[test]
