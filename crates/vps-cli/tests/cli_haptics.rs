@@ -431,6 +431,7 @@ fn bench_slides_on_a_tilted_box() {
         assert!(expected.mean_force > 0.0);
         assert_eq!(s["mean_force"].as_f64(), Some(expected.mean_force));
         assert_eq!(s["std_over_mean"].as_f64(), Some(expected.std_over_mean));
+        assert_eq!(s["exact_mean_force"].as_f64(), expected.exact_mean_force);
     }
     let reader = png::Decoder::new(std::io::Cursor::new(std::fs::read(&plot).unwrap()));
     let height = reader.read_info().unwrap().info().height;

@@ -61,13 +61,16 @@ pub fn run(a: &HapticsBenchArgs) -> Result<()> {
             scene.travel,
             scene.step
         );
-        println!("| tilt | mean ‖F‖ | std / mean | (max − min) / mean | largest change between poses | direction error | points in contact |");
-        println!("|---:|---:|---:|---:|---:|---:|---:|");
+        println!(
+            "| tilt | mean ‖F‖ | with the exact distance | std / mean | (max − min) / mean | largest change between poses | direction error | points in contact |"
+        );
+        println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
         for s in &slides {
             println!(
-                "| {}° | {:.2} | {:.2} % | {:.1} % | {:.1} % | {:.2}° | {:.0} |",
+                "| {}° | {:.2} | {} | {:.2} % | {:.1} % | {:.1} % | {:.2}° | {:.0} |",
                 s.tilt_degrees,
                 s.mean_force,
+                s.exact_mean_force.map_or("-".into(), |f| format!("{f:.2}")),
                 100.0 * s.std_over_mean,
                 100.0 * s.spread_over_mean,
                 100.0 * s.largest_step_change_over_mean,
