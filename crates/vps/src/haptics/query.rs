@@ -346,6 +346,8 @@ impl<'a> Frame<'a> {
     /// Inside: a point within `r` of the centre lies at most `m = floor(r/s) + 1` voxels away
     /// on each axis, and values fall by at most 1 per voxel step except once, by 2, from +1 to
     /// −1 across a diagonal, so a centre value `v ≥ m + 1` proves every point in a voxel ≥ 0.
+    /// So does a far-inside centre whose sphere reads only far-inside tiles
+    /// ([`Frame::far_inside_around`]); with distances that sphere is [`Class::Deep`].
     /// A sphere wholly beyond the grid is outside too.
     #[inline]
     fn classify(&self, cur: &mut Cursor<'_>, node: &SphereNode) -> Result<Class, StorageError> {
@@ -383,8 +385,13 @@ impl<'a> Frame<'a> {
             // there is far outside. (The centre's own brick is one of them: when it is stored,
             // the bit sets need not be asked.)
             Ok(Class::Outside)
-        } else if value > self.layers && r < MAX_CLEAR_RADIUS && cur.in_tile() && self.deep_around(cur, v, r) {
-            Ok(Class::Deep)
+        } else if value > self.layers && r < MAX_CLEAR_RADIUS && cur.in_tile() && self.far_inside_around(cur, v, r) {
+            // Every voxel the points read is far inside: with distances each point is the
+            // reach deep; with the layers each lies in a voxel ≥ 0, which the rule below
+            // proves only for spheres under the layers' few voxels across (without this, a
+            // deep plunge with the layers walked every node down to the leaves: slower than
+            // testing every point).
+            Ok(if self.distance { Class::Deep } else { Class::Inside })
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)
         } else {
@@ -409,16 +416,17 @@ impl<'a> Frame<'a> {
         }
     }
 
-    /// Whether every voxel within `floor(r) + 2` of voxel `v`, a far-inside tile's, is far
-    /// inside, with its distance: with interpolated distances, when no brick there is stored
-    /// and the box lies in the grid. Every voxel of the box then belongs to a tile, and an
-    /// outside tile is never within the layers of an inside one, so walking face by face from
-    /// `v` never changes sign (as for culling beyond the layers, `docs/HAPTICS.md`).
+    /// Whether every voxel a point within `r` of voxel `v` (a far-inside tile's) reads is far
+    /// inside: every voxel within `floor(r)` and [`Frame::reach_voxels`] of `v`, when no brick
+    /// there is stored and the box lies in the grid. Every voxel of the box then belongs to a
+    /// tile, and an outside tile is never within the layers of an inside one, so walking face
+    /// by face from `v` never changes sign (as for culling beyond the layers,
+    /// `docs/HAPTICS.md`).
     #[inline]
-    fn deep_around(&self, cur: &Cursor<'_>, v: [u32; 3], r: f64) -> bool {
+    fn far_inside_around(&self, cur: &Cursor<'_>, v: [u32; 3], r: f64) -> bool {
         let h = r as u32 + self.reach_voxels() as u32;
         let dims = self.dims.to_array();
-        self.distance && (0..3).all(|a| v[a] >= h && f64::from(v[a] + h) < dims[a]) && cur.clear_around(v, h)
+        (0..3).all(|a| v[a] >= h && f64::from(v[a] + h) < dims[a]) && cur.clear_around(v, h)
     }
 
     /// Depth-first walk below `root` (already found not outside when `root_tested`), left
