@@ -196,7 +196,13 @@ fn run_poses(
     reference: Option<(&Mesh, &SlideParams)>,
     contact_params: &ContactParams,
 ) -> Result<Run, SlideError> {
-    let reference = reference.filter(|_| contact_params.penetration == Penetration::Distance);
+    let reference = reference
+        .filter(|_| contact_params.penetration == Penetration::Distance)
+        .map(|(mesh, p)| Reference {
+            mesh,
+            bounds: mesh.bounds(),
+            reach: distance_reach(p.layers) * p.box_voxel,
+        });
     let (mut forces, mut points, mut worst_angle) = (Vec::new(), 0u64, 0.0f64);
     let mut exact_sum = 0.0;
     for (centre, turn, ideal) in poses {
@@ -210,12 +216,11 @@ fn run_poses(
         }
         forces.push(f);
         points += c.points_in_contact;
-        if let Some((mesh, p)) = reference {
-            let reach = distance_reach(p.layers) * p.box_voxel;
-            exact_sum += exact_force(mesh, shell, centre, turn, reach, contact_params.stiffness).length();
+        if let Some(reference) = &reference {
+            exact_sum += exact_force(reference, shell, centre, turn, contact_params.stiffness).length();
         }
     }
-    let exact_mean = reference.map(|_| exact_sum / forces.len() as f64);
+    let exact_mean = reference.is_some().then(|| exact_sum / forces.len() as f64);
     Ok(Run {
         forces,
         points,
@@ -224,21 +229,31 @@ fn run_poses(
     })
 }
 
-/// The force on `shell`, posed at `centre` turned by `turn`, of `mesh` with each point's
-/// penetration its exact depth: its distance to the nearest triangle when the mesh winds
-/// around it, at most `reach` (as the voxmap clamps it), else nothing; weighted as the query
-/// weights its points. Brute force over the triangles, for small meshes.
+/// The static mesh of a scene, as [`exact_force`] needs it for every pose.
+struct Reference<'m> {
+    mesh: &'m Mesh,
+    /// The mesh's bounds: beyond them a point is outside.
+    bounds: (DVec3, DVec3),
+    /// The voxmap's reach in world units, to which it clamps distances.
+    reach: f64,
+}
+
+/// The force on `shell`, posed at `centre` turned by `turn`, of the reference mesh with each
+/// point's penetration its exact depth: its distance to the nearest triangle when the mesh
+/// winds around it, at most the reach, else nothing; weighted as the query weights its
+/// points. Brute force over the triangles, for small meshes.
 fn exact_force(
-    mesh: &Mesh,
+    reference: &Reference<'_>,
     shell: &crate::Pointshell,
     centre: DVec3,
     turn: DQuat,
-    reach: f64,
     stiffness: f64,
 ) -> DVec3 {
-    let corners = mesh.triangles.iter().flatten();
-    let lo = corners.clone().fold(DVec3::INFINITY, |lo, &v| lo.min(v));
-    let hi = corners.fold(DVec3::NEG_INFINITY, |hi, &v| hi.max(v));
+    let Reference {
+        mesh,
+        bounds: (lo, hi),
+        reach,
+    } = *reference;
     let mut force = DVec3::ZERO;
     for ((p, n), w) in shell.points.iter().zip(&shell.normals).zip(&shell.weights) {
         let x = centre + turn * (shell.origin + p.as_dvec3());

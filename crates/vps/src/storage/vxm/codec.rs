@@ -3,8 +3,8 @@
 
 use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{
-    bound_outer_distances, distance_is_read, distance_on_its_side, distance_reach, outer_distance, BrickDistances,
-    BrickValues, DISTANCE_STEP,
+    bound_outer_distances, distance_is_read, distance_on_its_side, far_distance, outer_distance, BrickDistances,
+    BrickValues,
 };
 
 use super::format::{
@@ -356,7 +356,7 @@ fn checked_distances(values: &BrickValues, d: BrickDistances, layers: u8) -> Res
 /// value says ([`distance_on_its_side`]); `None` if none does. The writer and the reader hold
 /// distances to the same rules.
 pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u8) -> Option<String> {
-    let limit = (distance_reach(layers) / DISTANCE_STEP).round() as i32;
+    let limit = i32::from(far_distance(layers, 1));
     // Checked without branches first, as the values are.
     let bad = |i: usize| (d[i] as i32).abs() > limit || !distance_on_its_side(values[i], d[i]);
     if !(0..BRICK_VOXELS).fold(false, |any, i| any | bad(i)) {
@@ -387,6 +387,7 @@ pub fn decode_payload(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::voxmap::DISTANCE_STEP;
 
     #[test]
     fn predictor_round_trips() {
