@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""What the distances of a version 2 `.vxm` cost, and what other codings would make of them.
+"""What the distances of a `.vxm` cost, and what other codings would make of them.
 
     python3 crates/vps/benches/distance_coding.py FILE.vxm [FILE.vxm ...]
 
 Needs numpy and zstandard (`pip install numpy zstandard`; zstandard wraps the same zstd C
-library the writer links). For each version 2 file (codec 2, `docs/FORMAT.md`) it decodes
-every stored brick and prints, per brick:
+library the writer links). For each file with distances (version 2, codec 2, or version 3,
+codec 3: `docs/FORMAT.md`) it decodes every stored brick and prints, per brick:
 
 - the payload bytes of the values alone and of values with distances, re-compressed as the
   writer does (zstd level 1, no checksum, content size, magic dropped);
@@ -14,7 +14,9 @@ every stored brick and prints, per brick:
 - the order-0 entropy of the distance residuals, bits a voxel, under the writer's predictor
   (the previous voxel) and a 3D Lorenzo predictor (the parallelepiped through the seven
   neighbours before a voxel; fewer on the brick's lower faces), at steps of 1/32 (stored),
-  1/16 and 1/8 voxel.
+  1/16 and 1/8 voxel, over the distances version 3 stores (values -1 and above);
+- what an ideal coder with context would need (`context_bounds`): the file's own conditional
+  entropies, with no cost for its tables, so a bound no real coder reaches.
 
 A scratch measurement for `docs/PERFORMANCE.md`, not a test: nothing here is asserted.
 """
@@ -32,18 +34,56 @@ VOXELS = 512
 
 
 def frames_of(path):
-    """The file's brick payloads as complete zstd frames (magic restored)."""
+    """The file's codec and its brick payloads as complete zstd frames (magic restored)."""
     data = open(path, "rb").read()
     version, codec = struct.unpack_from("<I", data, 8)[0], data[63]
-    if version != 2 or codec != 2:
-        raise SystemExit(f"{path}: version {version}, codec {codec}: this script reads version 2 files "
-                         "(all distances stored); version 3 stores those of values -1 and above only")
+    if (version, codec) not in ((2, 2), (3, 3)):
+        raise SystemExit(f"{path}: version {version}, codec {codec}: this script reads the files "
+                         "with distances (version 2, codec 2; version 3, codec 3)")
     bricks, index_offset = struct.unpack_from("<Q", data, 80)[0], struct.unpack_from("<Q", data, 120)[0]
     out = []
     for b in range(bricks):
         _key, offset, length, _crc = struct.unpack_from("<QQII", data, index_offset + 24 * b)
         out.append(MAGIC + data[offset : offset + length])
-    return out
+    return codec, out
+
+
+def decode(codec, raws):
+    """Values and distances (steps of 1/32 voxel) of every brick, bricks × 512 each, with
+    the distances codec 3 leaves out (values -2 and below) at their bound, `32·v + 16`."""
+    n = len(raws)
+    values = np.zeros((n, VOXELS), dtype=np.int64)
+    residuals = np.zeros((n, VOXELS), dtype=np.int64)
+    for b, r in enumerate(raws):
+        values[b] = np.frombuffer(r[:VOXELS], dtype=np.int8)
+    values = ((undo_prediction(values) + 128) % 256) - 128
+    stored = values >= -1
+    for b, r in enumerate(raws):
+        m = int(stored[b].sum()) if codec == 3 else VOXELS
+        low = np.frombuffer(r[VOXELS : VOXELS + m], dtype=np.uint8).astype(np.int64)
+        high = np.frombuffer(r[VOXELS + m : VOXELS + 2 * m], dtype=np.uint8).astype(np.int64)
+        z = low | (high << 8)
+        unzigzagged = (z >> 1) ^ -(z & 1)
+        if codec == 3:
+            residuals[b][stored[b]] = unzigzagged
+        else:
+            residuals[b] = unzigzagged
+    bound = 32 * values + 16
+    # What each voxel predicts the next with: codec 2 chains every stored distance, codec 3
+    # puts the bound in place of those it leaves out.
+    chain = np.zeros_like(residuals)
+    for i in range(VOXELS):
+        if i & 7:
+            p = chain[:, i - 1]
+        elif i & 63:
+            p = chain[:, i - 8]
+        elif i:
+            p = chain[:, i - 64]
+        else:
+            p = 0
+        d = ((p + residuals[:, i] + 32768) % 65536) - 32768
+        chain[:, i] = np.where(stored[:, i], d, bound[:, i]) if codec == 3 else d
+    return values, np.where(stored, chain, bound)
 
 
 def previous_voxel(a):
@@ -104,15 +144,56 @@ def decode_us(frames, dictionary=None):
     return best * 1e6
 
 
+def conditional_bits(symbols, context):
+    """Bits to code `symbols` with the file's own frequencies of each symbol in each context:
+    the conditional entropy times the count, tables free."""
+    pairs = np.stack([context.ravel(), symbols.ravel()], axis=1)
+    _, pair_of, pair_counts = np.unique(pairs, axis=0, return_inverse=True, return_counts=True)
+    _, context_of, context_counts = np.unique(context.ravel(), return_inverse=True, return_counts=True)
+    return float(-np.log2(pair_counts[pair_of.ravel()] / context_counts[context_of.ravel()]).sum())
+
+
+def before(a, dz, dy, dx, outside):
+    """Each voxel's neighbour `(dz, dy, dx)` voxels before it in its brick, `outside` where
+    that leaves the brick."""
+    pad = np.pad(a, ((0, 0), (1, 0), (1, 0), (1, 0)), constant_values=outside)
+    return pad[:, 1 - dz : 9 - dz, 1 - dy : 9 - dy, 1 - dx : 9 - dx]
+
+
+def context_bounds(values, distances):
+    """Bytes a brick an ideal coder with context would need, each brick on its own (contexts
+    from the voxels before a voxel in index order only, so it decodes in one pass):
+    - values alone: each value given the values before it along x, y and z;
+    - distances: the Lorenzo residual given the voxel's value (-1 to 3) and the size of the
+      residuals before it along x, y and z;
+    - the values then, given the distances: a stored voxel's value given its distance (to a
+      quarter voxel) and the values before it along x and y; the others' as values alone."""
+    v = values.reshape(-1, 8, 8, 8)
+    d = distances.reshape(-1, 8, 8, 8)
+    stored = v >= -1
+    n = len(v)
+    vx, vy, vz = before(v, 0, 0, 1, 99), before(v, 0, 1, 0, 99), before(v, 1, 0, 0, 99)
+    neighbours = ((vx + 128) * 256 + vy + 128) * 256 + vz + 128
+    values_alone = conditional_bits(v, neighbours)
+    r = d - lorenzo(d)
+    size = sum(np.abs(before(r, *o, 0)) for o in ((0, 0, 1), (0, 1, 0), (1, 0, 0)))
+    size_class = np.searchsorted(np.array([1, 2, 3, 5, 8, 12, 20, 40]), size, side="right")
+    distance_bits = conditional_bits(r[stored], (np.clip(v, -1, 3) * 16 + size_class)[stored])
+    quarter = np.clip(np.floor(d / 8), -40, 40)
+    given_distance = conditional_bits(v[stored], ((quarter + 64) * 256 + vx + 128)[stored] * 256 + vy[stored] + 128)
+    the_rest = conditional_bits(v[~stored], neighbours[~stored])
+    return values_alone / 8 / n, (distance_bits + given_distance + the_rest) / 8 / n
+
+
 def report(path):
-    frames = frames_of(path)
+    codec, frames = frames_of(path)
     raws = [zstd.ZstdDecompressor().decompress(f) for f in frames]
     n = len(raws)
     level1 = dict(level=1, write_checksum=False, write_content_size=True, write_dict_id=False)
     plain = zstd.ZstdCompressor(**level1)
     values_only = sum(len(plain.compress(r[:VOXELS])) - 4 for r in raws) / n
     with_distances = sum(len(f) - 4 for f in frames) / n
-    print(f"{path}: {n} bricks; payload bytes a brick: values {values_only:.1f}, "
+    print(f"{path}: codec {codec}, {n} bricks; payload bytes a brick: values {values_only:.1f}, "
           f"with distances {with_distances:.1f} (+{with_distances - values_only:.1f})")
 
     sample = random.Random(1).sample(raws, min(4000, n))
@@ -126,15 +207,22 @@ def report(path):
           f"{sum(len(f) - 4 for f in dict_frames) / n:.1f}; decoding a frame "
           f"{decode_us(timed):.2f} µs, with the dictionary {decode_us(dict_frames[:20000], dictionary):.2f} µs")
 
-    raw = np.frombuffer(b"".join(raws), dtype=np.uint8).reshape(n, 3 * VOXELS).astype(np.int64)
-    zigzag = raw[:, VOXELS : 2 * VOXELS] | (raw[:, 2 * VOXELS :] << 8)
-    distances = undo_prediction((zigzag >> 1) ^ -(zigzag & 1)).reshape(n, 8, 8, 8)
+    values, distances = decode(codec, raws)
+    stored = (values >= -1).reshape(n, 8, 8, 8)
+    distances = distances.reshape(n, 8, 8, 8)
     cells = []
     for q in (1, 2, 4):
         d = np.round(distances / q).astype(np.int64)
-        cells.append(f"1/{32 // q}: previous voxel {entropy(d - previous_voxel(d)):.2f}, "
-                     f"Lorenzo {entropy(d - lorenzo(d)):.2f}")
-    print("  residual entropy, bits a voxel: " + "; ".join(cells))
+        cells.append(f"1/{32 // q}: previous voxel {entropy((d - previous_voxel(d))[stored]):.2f}, "
+                     f"Lorenzo {entropy((d - lorenzo(d))[stored]):.2f}")
+    print(f"  residual entropy, bits a stored voxel ({stored.sum() / n:.0f} a brick): " + "; ".join(cells))
+
+    alone, joint = context_bounds(values, distances)
+    index = 24  # an index entry a brick, in either file
+    print(f"  an ideal coder with context, bytes a brick: values {alone:.1f}, values with distances "
+          f"{joint:.1f}; with the index entry, against values alone as written: "
+          f"{(joint + index) / (values_only + index):.3f}, as it would code them: {(joint + index) / (alone + index):.3f} "
+          f"(as written now: {(with_distances + index) / (values_only + index):.3f})")
 
 
 if __name__ == "__main__":
