@@ -73,15 +73,7 @@ def decode(codec, raws):
     # puts the bound in place of those it leaves out.
     chain = np.zeros_like(residuals)
     for i in range(VOXELS):
-        if i & 7:
-            p = chain[:, i - 1]
-        elif i & 63:
-            p = chain[:, i - 8]
-        elif i:
-            p = chain[:, i - 64]
-        else:
-            p = 0
-        d = ((p + residuals[:, i] + 32768) % 65536) - 32768
+        d = ((prediction(chain, i) + residuals[:, i] + 32768) % 65536) - 32768
         chain[:, i] = np.where(stored[:, i], d, bound[:, i]) if codec == 3 else d
     return values, np.where(stored, chain, bound)
 
@@ -99,16 +91,20 @@ def undo_prediction(residuals):
     """Running sums in index order (bricks × 512, z-major)."""
     v = np.zeros_like(residuals)
     for i in range(VOXELS):
-        if i & 7:
-            p = v[:, i - 1]
-        elif i & 63:
-            p = v[:, i - 8]
-        elif i:
-            p = v[:, i - 64]
-        else:
-            p = 0
-        v[:, i] = p + residuals[:, i]
+        v[:, i] = prediction(v, i) + residuals[:, i]
     return v
+
+
+def prediction(decoded, i):
+    """The writer's prediction of entry `i` of every brick from the entries decoded before it:
+    the one before along x, else y, else z, else 0."""
+    if i & 7:
+        return decoded[:, i - 1]
+    if i & 63:
+        return decoded[:, i - 8]
+    if i:
+        return decoded[:, i - 64]
+    return 0
 
 
 def lorenzo(d):
