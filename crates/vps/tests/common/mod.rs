@@ -10,7 +10,7 @@ pub mod mesh_files;
 pub mod pointshell_bytes;
 
 use glam::DVec3;
-use vps::shapes;
+use vps::shapes::{self, SplitMix};
 use vps::{Mesh, Triangle};
 
 /// The entries of `dir`, sorted.
@@ -105,4 +105,49 @@ pub fn inward_normals(mesh: &Mesh, shell: &vps::pointshell::Pointshell, step: f6
     let decided = sides.iter().flatten().count();
     let inward = sides.iter().flatten().filter(|&&a| a).count();
     (decided, inward)
+}
+
+/// A random soup: pieces of a sphere, a box and a torus, some triangles dropped, flipped or
+/// doubled, some patches cracked apart, the whole moved by a random offset.
+pub fn soup(seed: u64) -> Mesh {
+    let mut rng = SplitMix(seed);
+    let mut parts = Vec::new();
+    for k in 0..1 + rng.below(3) {
+        let c = DVec3::new(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0), rng.range(-4.0, 4.0));
+        let base = match rng.below(4) {
+            0 => shapes::sphere(c, rng.range(3.0, 6.0), 12, 24),
+            1 => shapes::cuboid(c - rng.range(2.0, 5.0), c + rng.range(2.0, 5.0)),
+            2 => shapes::torus(c, 4.0, rng.range(1.2, 2.0), 24, 12),
+            _ => shapes::cracked_sphere(c, rng.range(3.0, 6.0), 12, 24, rng.range(0.0, 0.05)),
+        };
+        let cut = rng.range(-6.0, 8.0);
+        let (drop, flip, double) = (rng.unit() * 0.1, rng.unit() * 0.2, rng.unit() * 0.2);
+        let whole_flip = rng.below(4) == 0;
+        let mut tris = Vec::new();
+        for t in base {
+            if t.iter().any(|v| v.z > c.z + cut) || rng.unit() < drop {
+                continue;
+            }
+            let t = if whole_flip ^ (rng.unit() < flip) {
+                [t[0], t[2], t[1]]
+            } else {
+                t
+            };
+            tris.push(t);
+            if rng.unit() < double {
+                tris.push(t);
+            }
+        }
+        if !tris.is_empty() {
+            parts.push((format!("part{k}"), tris));
+        }
+    }
+    if parts.is_empty() {
+        parts.push(("cube".into(), shapes::cuboid(DVec3::ZERO, DVec3::ONE)));
+    }
+    let mut m = Mesh::default();
+    for (name, tris) in parts {
+        m.push_object(&name, tris).unwrap();
+    }
+    m
 }
