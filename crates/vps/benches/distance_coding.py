@@ -157,28 +157,24 @@ def before(a, dz, dy, dx, outside):
 
 
 def context_bounds(values, distances):
-    """Bytes a brick an ideal coder with context would need, each brick on its own (contexts
-    from the voxels before a voxel in index order only, so it decodes in one pass):
-    - values alone: each value given the values before it along x, y and z;
-    - distances: the Lorenzo residual given the voxel's value (-1 to 3) and the size of the
-      residuals before it along x, y and z;
-    - the values then, given the distances: a stored voxel's value given its distance (to a
-      quarter voxel) and the values before it along x and y; the others' as values alone."""
+    """Bytes a brick an ideal coder with context would need, each brick on its own, in an
+    order a decoder can follow (contexts from what is already decoded: the voxels before a
+    voxel in index order, and the values before the distances):
+    - the values: each given the values before it along x, y and z;
+    - then the distances of the voxels stored (values -1 and above, known by then): the
+      Lorenzo residual given the voxel's value (-1 to 3) and the size of the residuals before
+      it along x, y and z."""
     v = values.reshape(-1, 8, 8, 8)
     d = distances.reshape(-1, 8, 8, 8)
     stored = v >= -1
     n = len(v)
     vx, vy, vz = before(v, 0, 0, 1, 99), before(v, 0, 1, 0, 99), before(v, 1, 0, 0, 99)
-    neighbours = ((vx + 128) * 256 + vy + 128) * 256 + vz + 128
-    values_alone = conditional_bits(v, neighbours)
+    values_alone = conditional_bits(v, ((vx + 128) * 256 + vy + 128) * 256 + vz + 128)
     r = d - lorenzo(d)
     size = sum(np.abs(before(r, *o, 0)) for o in ((0, 0, 1), (0, 1, 0), (1, 0, 0)))
     size_class = np.searchsorted(np.array([1, 2, 3, 5, 8, 12, 20, 40]), size, side="right")
     distance_bits = conditional_bits(r[stored], (np.clip(v, -1, 3) * 16 + size_class)[stored])
-    quarter = np.clip(np.floor(d / 8), -40, 40)
-    given_distance = conditional_bits(v[stored], ((quarter + 64) * 256 + vx + 128)[stored] * 256 + vy[stored] + 128)
-    the_rest = conditional_bits(v[~stored], neighbours[~stored])
-    return values_alone / 8 / n, (distance_bits + given_distance + the_rest) / 8 / n
+    return values_alone / 8 / n, (values_alone + distance_bits) / 8 / n
 
 
 def report(path):

@@ -283,6 +283,54 @@ fn gltf_strips_and_fans_and_scenes_without_a_default() {
     assert!(e.contains("mode Lines") && e.contains("only TRIANGLES"), "{e}");
 }
 
+/// A glTF's buffer file is read only up to the length the buffer declares, and only if it is a
+/// regular file that long: a 64 GiB file (sparse) with a short buffer reads that buffer; a URI
+/// naming a folder, a device, a pipe, a short file or an absolute path is an error at once,
+/// not a read without end (`/dev/zero`) or a wait for a writer (a pipe).
+#[test]
+fn gltf_buffer_files_are_regular_files_read_to_their_declared_length() {
+    let dir = tempfile::tempdir().unwrap();
+    let (tris, nodes) = (sphere(), hierarchy());
+    let (doc, bin) = gltf_parts(&tris, &cuboid(), &nodes, None);
+    let want = Mesh::load(&write(dir.path(), "own.glb", glb(&doc, &bin))).unwrap();
+    let long = write(dir.path(), "long.bin", &bin);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(long)
+        .unwrap()
+        .set_len(1 << 36)
+        .unwrap();
+    let (doc, _) = gltf_parts(&tris, &cuboid(), &nodes, Some("long.bin"));
+    let got = Mesh::load(&write(dir.path(), "long.gltf", serde_json::to_vec(&doc).unwrap())).unwrap();
+    assert_eq!(got.triangles, want.triangles);
+
+    std::fs::create_dir(dir.path().join("folder.bin")).unwrap();
+    let mut special = vec![("folder.bin", "is not a regular file")];
+    #[cfg(unix)]
+    {
+        special.push(("/dev/zero", "absolute"));
+        let made = std::process::Command::new("mkfifo")
+            .arg(dir.path().join("pipe.bin"))
+            .status();
+        if made.is_ok_and(|s| s.success()) {
+            special.push(("pipe.bin", "is not a regular file"));
+        } else {
+            eprintln!("skipping the pipe: mkfifo failed");
+        }
+    }
+    let absolute = dir.path().join("own.glb");
+    special.push((absolute.to_str().unwrap(), "absolute"));
+    for (uri, why) in special {
+        let (doc, _) = gltf_parts(&tris, &cuboid(), &nodes, Some(uri));
+        let msg = load_error(&write(dir.path(), "special.gltf", serde_json::to_vec(&doc).unwrap()));
+        assert!(msg.contains(why), "{uri}: {msg}");
+    }
+    write(dir.path(), "short.bin", &bin[..bin.len() - 1]);
+    let (doc, _) = gltf_parts(&tris, &cuboid(), &nodes, Some("short.bin"));
+    let msg = load_error(&write(dir.path(), "short.gltf", serde_json::to_vec(&doc).unwrap()));
+    assert!(msg.contains("fewer than the buffer declares"), "{msg}");
+}
+
 /// The message of a load error, which must name the file.
 fn load_error(path: &Path) -> String {
     let e = Mesh::load(path).unwrap_err();

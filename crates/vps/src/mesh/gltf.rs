@@ -16,6 +16,7 @@
 //! and the node hierarchy to be a tree, so that a bad file is an error, never a panic or a
 //! loop.
 
+use std::io::Read;
 use std::path::Path;
 
 use base64::Engine;
@@ -153,9 +154,8 @@ fn load_buffers(gltf: &gltf::Gltf, base: Option<&Path>, input: &Input) -> Result
                 .blob
                 .clone()
                 .ok_or_else(|| input.error(format!("{what} is the GLB binary chunk, but there is none")))?,
-            Source::Uri(uri) => {
-                read_uri(uri, base).map_err(|e| input.error(format!("{what} ({}): {e}", shown(uri))))?
-            }
+            Source::Uri(uri) => read_uri(uri, base, buffer.length())
+                .map_err(|e| input.error(format!("{what} ({}): {e}", shown(uri))))?,
         };
         if data.len() < buffer.length() {
             return Err(input.error(format!(
@@ -179,9 +179,12 @@ fn shown(uri: &str) -> String {
     }
 }
 
-/// The bytes a buffer URI names: base64 `data:` or a relative file, percent-escapes decoded
-/// (`part%20one.bin` is the file `part one.bin`, as exporters write it).
-fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String> {
+/// The bytes a buffer URI names: base64 `data:` or a relative file name, percent-escapes
+/// decoded (`part%20one.bin` is the file `part one.bin`, as exporters write it). Of a file,
+/// only the buffer's `length` bytes are read, and only from a regular file that has them: a URI
+/// naming `/dev/zero` would otherwise be read without end, a pipe would wait for a writer, and
+/// a huge file would be read whole.
+fn read_uri(uri: &str, base: Option<&Path>, length: usize) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (kind, data) = rest.split_once(',').ok_or("a data URI without a comma")?;
         if !kind.ends_with(";base64") {
@@ -198,8 +201,39 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String> {
     let name = percent_encoding::percent_decode_str(uri)
         .decode_utf8()
         .map_err(|_| "its percent-escapes do not decode to UTF-8")?;
+    if Path::new(&*name).has_root() || Path::new(&*name).is_absolute() {
+        return Err("an absolute file name: only data URIs and relative file names can be read".into());
+    }
     let path = base.join(&*name);
-    std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+    let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+    let file = open_without_waiting(&path).map_err(cannot)?;
+    let meta = file.metadata().map_err(cannot)?;
+    if !meta.is_file() {
+        return Err(format!("{} is not a regular file", path.display()));
+    }
+    if meta.len() < length as u64 {
+        return Err(format!(
+            "{} has {} bytes, fewer than the buffer declares",
+            path.display(),
+            meta.len()
+        ));
+    }
+    let mut data = Vec::new();
+    file.take(length as u64).read_to_end(&mut data).map_err(cannot)?;
+    Ok(data)
+}
+
+/// `path` opened for reading; on Unix without blocking, so that a pipe is opened at once (to be
+/// refused as not a regular file) rather than waiting for a writer.
+fn open_without_waiting(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(nix::libc::O_NONBLOCK);
+    }
+    options.open(path)
 }
 
 /// Check that an accessor can be read: not sparse, of at least one element, of the given
