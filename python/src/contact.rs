@@ -53,13 +53,14 @@ impl PyContact {
     }
 }
 
-/// "distance" or "layers".
+/// "distance", "layers" or "sharp".
 pub(crate) fn penetration_of(name: &str) -> PyResult<Penetration> {
     match name {
         "distance" => Ok(Penetration::Distance),
         "layers" => Ok(Penetration::Layers),
+        "sharp" => Ok(Penetration::Sharp),
         _ => Err(PyValueError::new_err(format!(
-            "penetration must be 'distance' or 'layers', got {name:?}"
+            "penetration must be 'distance', 'layers' or 'sharp', got {name:?}"
         ))),
     }
 }
@@ -83,8 +84,9 @@ pub(crate) fn pose_of(p: Option<&[f64]>) -> PyResult<Pose> {
 /// Force and torque the voxmap exerts on the pointshell at `pose`: `(tx, ty, tz)` or
 /// `(tx, ty, tz, qw, qx, qy, qz)` (identity when `None`). `stiffness` is the force per unit of
 /// penetration per point; `budget_seconds`, when given, bounds the time of the query;
-/// `penetration` is "distance" (the interpolated signed distance, where the voxmap has one)
-/// or "layers" (docs/HAPTICS.md).
+/// `penetration` is "distance" (the interpolated signed distance, where the voxmap has one),
+/// "sharp" (the same, blended so as to keep convex edges and corners) or "layers"
+/// (docs/HAPTICS.md).
 #[pyfunction]
 #[pyo3(signature = (voxmap, shell, pose = None, *, stiffness = 1.0, budget_seconds = None, penetration = "distance"))]
 pub(crate) fn contact(

@@ -173,6 +173,26 @@ def test_contact_interpolates_the_distances_of_a_voxmap_that_has_them(tmp_path):
         vps.contact(wall, shell, pose, penetration="deep")
 
 
+def test_the_sharp_penetration_keeps_a_box_edge(tmp_path):
+    bv, bt = box((-2.0, -2.0, -2.0), (2.0, 2.0, 0.0))  # an edge along y at x = 2, z = 0
+    wall = vps.voxelize(vps.Mesh(bv, bt), SIZE, distances=True)
+    shell = vps.pointshell(vps.Mesh(*sphere(radius=0.5)), voxel_size=SIZE)
+    on_face = (0.1, -0.2, 0.2)
+    smooth = vps.contact(wall, shell, on_face)
+    sharp = vps.contact(wall, shell, on_face, penetration="sharp")
+    assert sharp.force[2] == pytest.approx(smooth.force[2], rel=0.01)
+    # Pressed on the edge along the bisector of its faces: the trilinear blend cuts the ridge
+    # of the distance there, the sharp one keeps it.
+    c = (0.5 - 0.2) / np.sqrt(2.0)
+    on_edge = (2.0 + c, 0.3, c)
+    smooth = vps.contact(wall, shell, on_edge)
+    sharp = vps.contact(wall, shell, on_edge, penetration="sharp")
+    assert np.linalg.norm(sharp.force) > 1.05 * np.linalg.norm(smooth.force) > 0
+    wall.write(tmp_path / "wall.vxm")
+    from_file = vps.contact(vps.Voxmap.open(tmp_path / "wall.vxm"), shell, on_edge, penetration="sharp")
+    assert from_file.force == sharp.force
+
+
 def test_a_simulation_holds_a_ball_at_a_wall_it_is_pushed_through(tmp_path, run_vps):
     # A wall 2 voxels thick, the device pushed through it at 10 voxels per step and held
     # beyond: the object stays on the near side, the device is pulled back; the same from a

@@ -157,7 +157,7 @@ class Simulation:
         coupling: Optional[Tuple[float, float]] = None,
         stiffness: Optional[float] = None,
         max_penetration: float = 0.25,
-        penetration: Literal["distance", "layers"] = "distance",
+        penetration: Literal["distance", "layers", "sharp"] = "distance",
         budget_seconds: Optional[float] = None,
     ) -> None: ...
     def step(self, device_pose: Sequence[float]) -> SimulationStep:
@@ -193,6 +193,6 @@ def contact(
     *,
     stiffness: float = 1.0,
     budget_seconds: Optional[float] = None,
-    penetration: Literal["distance", "layers"] = "distance",
+    penetration: Literal["distance", "layers", "sharp"] = "distance",
 ) -> Contact:
     """Force and torque of the voxmap on the shell at pose (tx, ty, tz[, qw, qx, qy, qz])."""

@@ -47,6 +47,7 @@ extern "C" {
 /* Penetration formulas of vps_contact_params.penetration (docs/HAPTICS.md). */
 #define VPS_PENETRATION_DISTANCE 0 /* interpolated signed distance (the layers if the file has none) */
 #define VPS_PENETRATION_LAYERS 1   /* the paper's layer formula, even if the file has distances */
+#define VPS_PENETRATION_SHARP 2    /* the signed distance keeping convex edges and corners sharp (the layers if the file has none) */
 
 /* An open `.vxm` voxmap with a cache of decompressed bricks. Opaque. */
 typedef struct vps_voxmap vps_voxmap;
@@ -115,7 +116,7 @@ int vps_contact(const vps_voxmap *voxmap, const vps_pointshell *pointshell, cons
 typedef struct vps_contact_params {
     double stiffness;    /* as vps_contact's */
     double budget_us;    /* as vps_contact's */
-    int32_t penetration; /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
+    int32_t penetration; /* VPS_PENETRATION_DISTANCE (0), VPS_PENETRATION_LAYERS (1) or VPS_PENETRATION_SHARP (2) */
     int32_t reserved;    /* must be 0 */
 } vps_contact_params;
 
@@ -144,7 +145,7 @@ typedef struct vps_simulation_params {
     double contact_stiffness;  /* per point in contact; default the coupling's; passive up to 1000x it */
     double max_penetration;    /* deepest a point may go, voxels of the voxmap; default 0.25 */
     double step_budget_us;     /* time for a step's motion; default none (exact, same bits every run) */
-    int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0) or VPS_PENETRATION_LAYERS (1) */
+    int32_t penetration;       /* VPS_PENETRATION_DISTANCE (0), VPS_PENETRATION_LAYERS (1) or VPS_PENETRATION_SHARP (2) */
     int32_t reserved;          /* must be 0 */
     double inertia[9];         /* about the centre of mass, pointshell frame, row by row (the tensor's
                                   own entries, Ixy = -integral of x*y dm); all 0: a shell over the points */

@@ -42,6 +42,9 @@ pub const VPS_ERR_INTERNAL: c_int = 5;
 pub const VPS_PENETRATION_DISTANCE: i32 = 0;
 /// The penetration is the paper's layer formula, even when the file has distances.
 pub const VPS_PENETRATION_LAYERS: i32 = 1;
+/// The penetration is the signed distance blended so as to keep the ridges of convex edges and
+/// corners (the layers when the voxmap file has no distances).
+pub const VPS_PENETRATION_SHARP: i32 = 2;
 
 /// `vps_contact_params` in C: what `vps_contact_with_params` asks for.
 #[repr(C)]
@@ -51,7 +54,7 @@ pub struct VpsContactParams {
     pub stiffness: c_double,
     /// ≤ 0: the exact answer; > 0: the time-critical one, in microseconds.
     pub budget_us: c_double,
-    /// [`VPS_PENETRATION_DISTANCE`] or [`VPS_PENETRATION_LAYERS`].
+    /// [`VPS_PENETRATION_DISTANCE`], [`VPS_PENETRATION_LAYERS`] or [`VPS_PENETRATION_SHARP`].
     pub penetration: i32,
     /// Must be 0: room for a later field without a new function.
     pub reserved: i32,
@@ -330,7 +333,8 @@ pub unsafe extern "C" fn vps_contact(
 }
 
 /// [`vps_contact`] with its parameters in a struct, which also chooses the penetration
-/// formula ([`VPS_PENETRATION_DISTANCE`] or [`VPS_PENETRATION_LAYERS`]).
+/// formula ([`VPS_PENETRATION_DISTANCE`], [`VPS_PENETRATION_LAYERS`] or
+/// [`VPS_PENETRATION_SHARP`]).
 ///
 /// # Safety
 /// As [`vps_contact`], and `params` must be NULL or a readable `vps_contact_params`.
@@ -412,9 +416,10 @@ fn contact_params(p: &VpsContactParams) -> Result<ContactParams, String> {
     let penetration = match p.penetration {
         VPS_PENETRATION_DISTANCE => Penetration::Distance,
         VPS_PENETRATION_LAYERS => Penetration::Layers,
+        VPS_PENETRATION_SHARP => Penetration::Sharp,
         other => {
             return Err(format!(
-                "penetration {other} is neither VPS_PENETRATION_DISTANCE (0) nor VPS_PENETRATION_LAYERS (1)"
+                "penetration {other} is none of VPS_PENETRATION_DISTANCE (0), VPS_PENETRATION_LAYERS (1) and VPS_PENETRATION_SHARP (2)"
             ))
         }
     };
@@ -479,7 +484,11 @@ mod tests {
             contact_params(&p(VPS_PENETRATION_LAYERS, 0)).unwrap().penetration,
             Penetration::Layers
         );
-        assert!(contact_params(&p(2, 0)).unwrap_err().contains("penetration 2"));
+        assert_eq!(
+            contact_params(&p(VPS_PENETRATION_SHARP, 0)).unwrap().penetration,
+            Penetration::Sharp
+        );
+        assert!(contact_params(&p(3, 0)).unwrap_err().contains("penetration 3"));
         assert!(contact_params(&p(0, 7)).unwrap_err().contains("reserved"));
         // The zeroed struct is the default query.
         assert_eq!(

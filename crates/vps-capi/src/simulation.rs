@@ -28,7 +28,7 @@ pub struct VpsSimulationParams {
     pub max_penetration: c_double,
     /// Time for a step's motion, microseconds; 0: none (exact, the same bits on every run).
     pub step_budget_us: c_double,
-    /// `VPS_PENETRATION_DISTANCE` or `VPS_PENETRATION_LAYERS`.
+    /// `VPS_PENETRATION_DISTANCE`, `VPS_PENETRATION_LAYERS` or `VPS_PENETRATION_SHARP`.
     pub penetration: i32,
     /// Must be 0.
     pub reserved: i32,

@@ -55,6 +55,9 @@ pub enum PenetrationArg {
     Distance,
     /// The paper's layer depth plus the distance to the voxel centre's tangent plane.
     Layers,
+    /// The signed distance blended so as to keep the ridges of convex edges and corners, which
+    /// `distance` rounds off (eight times the look-ups; falls back to layers likewise).
+    Sharp,
 }
 
 impl From<PenetrationArg> for Penetration {
@@ -62,6 +65,7 @@ impl From<PenetrationArg> for Penetration {
         match p {
             PenetrationArg::Distance => Penetration::Distance,
             PenetrationArg::Layers => Penetration::Layers,
+            PenetrationArg::Sharp => Penetration::Sharp,
         }
     }
 }

@@ -49,12 +49,12 @@ proptest! {
         turn in (-0.6..0.6f64, -0.6..0.6f64, -0.6..0.6f64),
         n in 1usize..24,
         limit_voxels in 0.0..1.5f64,
-        layers in any::<bool>(),
+        penetration in prop_oneof![Just(Penetration::Distance), Just(Penetration::Layers), Just(Penetration::Sharp)],
     ) {
         let d = distance_fixture();
         let poses = motion(&start, DVec3::new(shift.0, shift.1, shift.2), DVec3::new(turn.0, turn.1, turn.2), n);
         let params = ContactParams {
-            penetration: if layers { Penetration::Layers } else { Penetration::Distance },
+            penetration,
             ..ContactParams::default()
         };
         let limit = limit_voxels * d.voxmap.grid().voxel_size;

@@ -1,10 +1,10 @@
 /*
  * contact: query a voxmap and a pointshell through the C ABI of libvps, one pose per line.
  *
- *   contact [-t THREADS] [-b BUDGET_US] [-l] VXM VPS STIFFNESS [POSES]
+ *   contact [-t THREADS] [-b BUDGET_US] [-l | -s] VXM VPS STIFFNESS [POSES]
  *
- * -l asks for the layer penetration (vps_contact_with_params); without it, vps_contact's
- * default.
+ * -l asks for the layer penetration, -s for the sharp one (vps_contact_with_params); without
+ * either, vps_contact's default.
  *
  * Poses are read from the file POSES, or from stdin when it is absent or "-": one pose per
  * line, 7 numbers "tx ty tz qw qx qy qz" separated by spaces, tabs or commas. Blank lines and
@@ -46,7 +46,8 @@ static vps_voxmap *voxmap;
 static vps_pointshell *shell;
 static const char *vxm_path, *vps_path;
 static double stiffness, budget_us;
-static int layers;
+/* -1: vps_contact's default; else the penetration asked for with vps_contact_with_params. */
+static int32_t penetration = -1;
 
 static void open_files(void) {
     char err[ERR_LEN];
@@ -88,11 +89,11 @@ static int parse_pose(const char *line, double pose[7]) {
 }
 
 static void run(query *q) {
-    if (layers) {
+    if (penetration >= 0) {
         vps_contact_params params = {0};
         params.stiffness = stiffness;
         params.budget_us = budget_us;
-        params.penetration = VPS_PENETRATION_LAYERS;
+        params.penetration = penetration;
         q->code = vps_contact_with_params(voxmap, shell, q->pose, &params, &q->c, q->err, sizeof q->err);
     } else {
         q->code = vps_contact(voxmap, shell, q->pose, stiffness, budget_us, &q->c, q->err, sizeof q->err);
@@ -136,7 +137,7 @@ static void *worker(void *arg) {
 }
 
 static void usage(void) {
-    fprintf(stderr, "usage: contact [-t THREADS] [-b BUDGET_US] [-l] VXM VPS STIFFNESS [POSES]\n");
+    fprintf(stderr, "usage: contact [-t THREADS] [-b BUDGET_US] [-l | -s] VXM VPS STIFFNESS [POSES]\n");
     exit(2);
 }
 
@@ -148,7 +149,9 @@ int main(int argc, char **argv) {
         } else if (!strcmp(argv[a], "-b") && a + 1 < argc) {
             budget_us = strtod(argv[++a], NULL);
         } else if (!strcmp(argv[a], "-l")) {
-            layers = 1;
+            penetration = VPS_PENETRATION_LAYERS;
+        } else if (!strcmp(argv[a], "-s")) {
+            penetration = VPS_PENETRATION_SHARP;
         } else {
             usage();
         }

@@ -53,9 +53,10 @@ int main(int argc, char **argv) {
            offsetof(vps_contact_result, energy), offsetof(vps_contact_result, deepest_point));
     printf("codes %d %d %d %d %d %d\n", VPS_OK, VPS_ERR_NULL, VPS_ERR_POSE, VPS_ERR_PARAM, VPS_ERR_STORAGE,
            VPS_ERR_INTERNAL);
-    printf("params %zu %zu %zu %zu %zu %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
+    printf("params %zu %zu %zu %zu %zu %d %d %d\n", sizeof(vps_contact_params), offsetof(vps_contact_params, stiffness),
            offsetof(vps_contact_params, budget_us), offsetof(vps_contact_params, penetration),
-           offsetof(vps_contact_params, reserved), VPS_PENETRATION_DISTANCE, VPS_PENETRATION_LAYERS);
+           offsetof(vps_contact_params, reserved), VPS_PENETRATION_DISTANCE, VPS_PENETRATION_LAYERS,
+           VPS_PENETRATION_SHARP);
     printf("simulation %zu %zu %zu %zu %zu %zu %zu %zu %zu %zu\n", sizeof(vps_simulation_params),
            offsetof(vps_simulation_params, max_penetration), offsetof(vps_simulation_params, step_budget_us),
            offsetof(vps_simulation_params, penetration),
@@ -165,10 +166,10 @@ int main(int argc, char **argv) {
     CHECK(c.points_in_contact == a.points_in_contact && memcmp(a.force, c.force, sizeof a.force) != 0);
     CHECK(vps_contact_with_params(vm, ps, id, NULL, &c, err, sizeof err) == VPS_ERR_NULL);
     CHECK(strcmp(err, "params is NULL") == 0);
-    params.penetration = 2;
+    params.penetration = 3;
     memset(&out, 0xAB, sizeof out);
     CHECK(vps_contact_with_params(vm, ps, id, &params, &out, err, sizeof err) == VPS_ERR_PARAM);
-    CHECK(strstr(err, "penetration 2") != NULL);
+    CHECK(strstr(err, "penetration 3") != NULL);
     params.penetration = VPS_PENETRATION_DISTANCE;
     params.reserved = 1;
     CHECK(vps_contact_with_params(vm, ps, id, &params, &out, err, sizeof err) == VPS_ERR_PARAM);

@@ -59,6 +59,7 @@ fn d_the_header_matches_the_rust_side() {
             offset_of!(ffi::VpsContactParams, reserved),
             ffi::VPS_PENETRATION_DISTANCE as usize,
             ffi::VPS_PENETRATION_LAYERS as usize,
+            ffi::VPS_PENETRATION_SHARP as usize,
         ],
         "vps_contact_params and the penetration codes in C vs Rust"
     );

@@ -45,10 +45,10 @@ fn a_c_process_gets_the_same_bits_as_this_process() {
     assert_replies_eq(&parse_replies(&out.stdout), &want[..40], &poses, "poses on stdin");
 }
 
-/// The layer penetration, asked for through `vps_contact_with_params`, also gives this
-/// process's bits, and differs from the default (distance) on a file with distances.
+/// The layer and the sharp penetrations, asked for through `vps_contact_with_params`, also give
+/// this process's bits, and differ from the default (distance) on a file with distances.
 #[test]
-fn a_the_layer_penetration_gets_the_same_bits_as_this_process() {
+fn a_the_other_penetrations_get_the_same_bits_as_this_process() {
     let o = objects();
     let files = write_files(&o.box_vm, &o.ball_shell);
     let poses = poses(3, 200);
@@ -58,17 +58,19 @@ fn a_the_layer_penetration_gets_the_same_bits_as_this_process() {
         PointshellFile::open(&files.vps).unwrap(),
     );
     assert!(vm.has_distances(), "the test files have distances");
-    let want = in_process_with(&vm, &shell, &poses, Penetration::Layers);
-    assert_replies_eq(
-        &contact_c_with(&["-l"], &files.vxm, &files.vps, &poses_file),
-        &want,
-        &poses,
-        "C layers vs this process",
-    );
-    assert_covers_the_cases(&want);
     let distance = in_process(&vm, &shell, &poses);
-    let differ = want.iter().zip(&distance).filter(|(l, d)| l != d).count();
-    assert!(differ > 0, "layers and distance agree on every pose");
+    for (flag, penetration) in [("-l", Penetration::Layers), ("-s", Penetration::Sharp)] {
+        let want = in_process_with(&vm, &shell, &poses, penetration);
+        assert_replies_eq(
+            &contact_c_with(&[flag], &files.vxm, &files.vps, &poses_file),
+            &want,
+            &poses,
+            &format!("C {penetration:?} vs this process"),
+        );
+        assert_covers_the_cases(&want);
+        let differ = want.iter().zip(&distance).filter(|(l, d)| l != d).count();
+        assert!(differ > 0, "{penetration:?} and distance agree on every pose");
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -150,7 +150,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     params.contact.penetration = a.penetration.into();
     params.max_penetration = a.max_penetration;
     params.step_budget = a.budget_us.map(std::time::Duration::from_micros);
-    if !voxmap.has_distances() && params.contact.penetration == vps::Penetration::Distance {
+    if !voxmap.has_distances() && params.contact.penetration != vps::Penetration::Layers {
         errln!(
             "note: {} has no distances (make it with `vps voxelize --distance`): the layers measure depth",
             a.voxmap.display()

@@ -62,8 +62,8 @@ pub(super) enum Class {
     Outside,
     /// Every point of it lies in a voxel ≥ 0.
     Inside,
-    /// With interpolated distances: every point's eight voxel centres lie in tiles far inside,
-    /// so every point is the reach deep.
+    /// With interpolated distances: every voxel centre each point's distance reads (eight, or 64
+    /// with the sharp blend) lies in tiles far inside, so every point is the reach deep.
     Deep,
     /// Either may hold.
     Straddles,
@@ -81,6 +81,12 @@ pub enum Penetration {
     /// The paper's: the point's voxel's layer plus its distance to the tangent plane through
     /// the voxel centre. Steps as a point crosses voxels; kept for comparison.
     Layers,
+    /// The signed distance blended so as to keep its ridges: inside a convex edge or corner,
+    /// the trilinear blend of [`Penetration::Distance`] is up to a quarter of a voxel too
+    /// shallow (an edge feels 0.76–0.89 of its force, a corner down to 0.27), which this
+    /// blend of the 4 × 4 × 4 voxel centres around a point mends. Continuous too, the same on
+    /// faces; eight times the look-ups. Like `Distance` without distances in the voxmap.
+    Sharp,
 }
 
 /// How to query.
@@ -188,6 +194,8 @@ pub(super) struct Frame<'a> {
     outside: i8,
     /// Interpolated distances (not layers) measure the penetration.
     pub(super) distance: bool,
+    /// ... blended by [`Cursor::sharp_distance_at`] (with `distance`).
+    pub(super) sharp: bool,
     /// The clamp of the distances, in voxels.
     reach: f64,
 }
@@ -235,7 +243,8 @@ impl<'a> Frame<'a> {
             dims: DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64),
             layers: voxmap.layers() as i32,
             outside: crate::voxmap::outside_value(voxmap.layers()),
-            distance: params.penetration == Penetration::Distance && voxmap.has_distances(),
+            distance: params.penetration != Penetration::Layers && voxmap.has_distances(),
+            sharp: params.penetration == Penetration::Sharp && voxmap.has_distances(),
             reach: crate::voxmap::distance_reach(voxmap.layers()),
         })
     }
@@ -280,7 +289,9 @@ impl<'a> Frame<'a> {
         let Some((value, v)) = cur.in_grid(u) else {
             return (0.0, None);
         };
-        let d = if self.distance {
+        let d = if self.sharp {
+            self.sharp_depth(cur, u)
+        } else if self.distance {
             if value <= -2 {
                 0.0
             } else {
@@ -307,20 +318,31 @@ impl<'a> Frame<'a> {
     }
 
     /// Voxels a point in a voxel of value `-k` must move before it can be in contact: no voxel
-    /// that can hold a point in contact is nearer (see [`Frame::classify`]).
+    /// that can hold a point in contact is nearer (see [`Frame::classify`]): `k − 1` with the
+    /// layers, `k − 2` with distances, `k − 4` with the sharp blend (its outside radius `k −
+    /// 3.5`, rounded down).
     #[inline]
     pub(super) fn free_travel(&self, value: i8) -> i32 {
-        -(value as i32) - self.reach_voxels()
+        -(value as i32) - self.reach_voxels() - self.sharp as i32
     }
 
     /// How far beyond its own voxel a point's penetration reads: one voxel for the layers,
-    /// two for an interpolated distance (its eight voxel centres).
+    /// two for an interpolated distance (its eight voxel centres), three for a sharp one (its
+    /// 4 × 4 × 4).
     #[inline]
     fn reach_voxels(&self) -> i32 {
-        if self.distance {
-            2
+        1 + self.distance as i32 + self.sharp as i32
+    }
+
+    /// The sharp penetration ([`Penetration::Sharp`]) of a point at grid units `u`: 0 beyond
+    /// the grid, as with the trilinear blend. One function for the kernel and
+    /// [`Frame::point_depth`], so the same bits.
+    #[inline]
+    pub(super) fn sharp_depth(&self, cur: &mut Cursor<'_>, u: DVec3) -> f64 {
+        if cur.contains(u) {
+            self.s * cur.sharp_distance_at(u)
         } else {
-            1
+            0.0
         }
     }
 
@@ -341,7 +363,9 @@ impl<'a> Frame<'a> {
     /// [`crate::generate::signed_distance`]), and those cells' lower corners are `⌊x − ½⌋`, so
     /// only beyond `[v − k + 1.5, v + k − 0.5)`. The sphere lies within that box when `r/s < k
     /// − 1 + f` (`k − 1.5 + f` with distances), `f` the distance in voxels from the centre to
-    /// the nearest face of its own voxel ([`Frame::outside_radius`]).
+    /// the nearest face of its own voxel ([`Frame::outside_radius`]). The sharp blend is at
+    /// most 1.55 voxels above the highest of those eight centres ([`Cursor::sharp_distance_at`]),
+    /// so its proof needs them all `≤ −3` (at most −2.5 voxels), two voxels more: `k − 3.5 + f`.
     ///
     /// Inside: a point within `r` of the centre lies at most `m = floor(r/s) + 1` voxels away
     /// on each axis, and values fall by at most 1 per voxel step except once, by 2, from +1 to
@@ -408,7 +432,9 @@ impl<'a> Frame<'a> {
         let f = u - DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let slack = f.min(DVec3::ONE - f).min_element();
         let k = -value as f64;
-        if self.distance {
+        if self.sharp {
+            k - 3.5 + slack
+        } else if self.distance {
             k - 1.5 + slack
         } else {
             k - 1.0 + slack
@@ -545,8 +571,8 @@ impl<'a> Frame<'a> {
         let (value, v) = looked_up.unwrap_or((self.outside, [0; 3]));
         // Values change by at most 1 per voxel step, except one step of 2 from −1 to +1
         // across a diagonal, and a point within r is at most floor(r/s) + 1 steps away.
-        // An interpolated distance reads one voxel further.
-        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + 1 + self.distance as i32;
+        // An interpolated distance reads one voxel further, a sharp one two.
+        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + self.reach_voxels();
         let v_max = if inside_grid {
             (value as i32 + steps + 1).min(self.layers + 1)
         } else {
@@ -572,7 +598,12 @@ impl<'a> Frame<'a> {
             let d = if self.distance {
                 // Weighted like its points, which keeps the estimate within the bound: the
                 // weights are at most 1.
-                self.s * cur.distance_at(u) * area_weight_f64(n.as_vec3())
+                let d = if self.sharp {
+                    cur.sharp_distance_at(u)
+                } else {
+                    cur.distance_at(u)
+                };
+                self.s * d * area_weight_f64(n.as_vec3())
             } else {
                 self.penetration(value, v, u, self.rot * n)
             };

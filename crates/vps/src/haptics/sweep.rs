@@ -5,8 +5,8 @@
 //! A node is culled once for the whole sequence: its sphere, grown by how far any of its points
 //! moves from the middle pose, is proved outside by one look-up, as in the contact query. A
 //! point that is not culled is checked pose by pose, but a point in a voxel of value `-k` cannot
-//! reach contact before it has moved `k - 2` voxels (`k - 1` with the layers; see
-//! [`Frame::free_travel`]), so the poses it cannot reach contact in are skipped. A point's
+//! reach contact before it has moved `k - 2` voxels (`k - 1` with the layers, `k - 4` with the
+//! sharp blend; see [`Frame::free_travel`]), so the poses it cannot reach contact in are skipped. A point's
 //! penetration is measured exactly as the contact query measures it, so the answer is the index
 //! that querying [`contact`](super::contact) at each pose in turn would stop at.
 

@@ -56,7 +56,9 @@ pub fn far_distance(layers: u8, value: i8) -> i16 {
 /// Whether a contact can read the distance of a voxel of value `value`: it lies within the
 /// first outer layer (`value ≥ −1`).
 ///
-/// Why the others are never read: the distance of a point is the blend of the eight voxel
+/// Why the others are never read by the default, trilinear blend (the sharp blend of
+/// [`crate::Penetration::Sharp`] reads the bounds they hold in its outer ring, the same from a
+/// file as in memory): the distance of a point is the blend of the eight voxel
 /// centres around it, which are 26-neighbours of each other, and no voxel `≤ −2` has a
 /// neighbour `≥ 0` (`docs/VOXMAP.md`, "Layers"). If one of the eight is at `≤ −2`, all are at
 /// `≤ −1`, outside, with negative distances, and so is the blend: the point is not in contact,

@@ -9,8 +9,8 @@ use vps::generate::signed_distance::signed_distances;
 use vps::haptics::{contact_brute_force, point_penetration};
 use vps::shapes;
 use vps::{
-    contact, pointshell, voxelize, CachedVoxmap, Contact, ContactParams, Mesh, Pointshell, PointshellData, Pose,
-    Triangle, VoxelizeParams, LEAF_SIZE,
+    contact, pointshell, voxelize, CachedVoxmap, Contact, ContactParams, Mesh, Penetration, Pointshell, PointshellData,
+    Pose, Triangle, VoxelizeParams, LEAF_SIZE,
 };
 
 /// An assembly (ball, torus, block, hollow box): normals in every direction, thin and thick
@@ -59,16 +59,19 @@ pub fn check_culled_walk<S: PointshellData + ?Sized>(
     shell: &S,
     pose: &Pose,
 ) -> Result<(), TestCaseError> {
-    let params = ContactParams {
-        stiffness: 3.5,
-        ..Default::default()
-    };
-    let fast = contact(voxmap, shell, pose, &params).unwrap();
-    let slow = contact_brute_force(voxmap, shell, pose, &params).unwrap();
-    assert_same(&fast, &slow, &format!("pose {}", pose.to_text()));
-    prop_assert_eq!(slow.points_tested, shell.points().len() as u64);
-    prop_assert!(fast.points_tested <= slow.points_tested);
-    assert_deepest_point(voxmap, shell, pose, &params, &fast);
+    for penetration in [Penetration::Distance, Penetration::Sharp] {
+        let params = ContactParams {
+            stiffness: 3.5,
+            penetration,
+            ..Default::default()
+        };
+        let fast = contact(voxmap, shell, pose, &params).unwrap();
+        let slow = contact_brute_force(voxmap, shell, pose, &params).unwrap();
+        assert_same(&fast, &slow, &format!("{penetration:?}, pose {}", pose.to_text()));
+        prop_assert_eq!(slow.points_tested, shell.points().len() as u64);
+        prop_assert!(fast.points_tested <= slow.points_tested);
+        assert_deepest_point(voxmap, shell, pose, &params, &fast);
+    }
     Ok(())
 }
 
@@ -96,33 +99,40 @@ pub fn check_time_critical<S: PointshellData + ?Sized>(
     pose: &Pose,
     budget_us: u64,
 ) -> Result<(), TestCaseError> {
-    let exact = contact(voxmap, shell, pose, &ContactParams::default()).unwrap();
-    let params = ContactParams {
-        budget: Some(Duration::from_micros(budget_us)),
-        ..Default::default()
-    };
-    let quick = contact(voxmap, shell, pose, &params).unwrap();
-    // Rounding is relative to the sum of the points' force magnitudes, which this bounds.
-    let slack = 1e-9 * (1.0 + exact.max_penetration * exact.points_in_contact as f64);
-    prop_assert!(
-        (quick.force - exact.force).length() <= quick.force_error_bound + slack,
-        "force {:?} vs exact {:?}, bound {}",
-        quick.force,
-        exact.force,
-        quick.force_error_bound
-    );
-    prop_assert!(
-        (quick.torque - exact.torque).length() <= quick.torque_error_bound + 10.0 * slack,
-        "torque {:?} vs exact {:?}, bound {}",
-        quick.torque,
-        exact.torque,
-        quick.torque_error_bound
-    );
-    prop_assert_eq!(quick.complete, quick.nodes_approximated == 0);
-    if budget_us == 0 {
-        prop_assert!(!quick.complete && quick.nodes_approximated >= 1);
+    for penetration in [Penetration::Distance, Penetration::Sharp] {
+        let exact = ContactParams {
+            penetration,
+            ..Default::default()
+        };
+        let exact = contact(voxmap, shell, pose, &exact).unwrap();
+        let params = ContactParams {
+            budget: Some(Duration::from_micros(budget_us)),
+            penetration,
+            ..Default::default()
+        };
+        let quick = contact(voxmap, shell, pose, &params).unwrap();
+        // Rounding is relative to the sum of the points' force magnitudes, which this bounds.
+        let slack = 1e-9 * (1.0 + exact.max_penetration * exact.points_in_contact as f64);
+        prop_assert!(
+            (quick.force - exact.force).length() <= quick.force_error_bound + slack,
+            "force {:?} vs exact {:?}, bound {}",
+            quick.force,
+            exact.force,
+            quick.force_error_bound
+        );
+        prop_assert!(
+            (quick.torque - exact.torque).length() <= quick.torque_error_bound + 10.0 * slack,
+            "torque {:?} vs exact {:?}, bound {}",
+            quick.torque,
+            exact.torque,
+            quick.torque_error_bound
+        );
+        prop_assert_eq!(quick.complete, quick.nodes_approximated == 0);
+        if budget_us == 0 {
+            prop_assert!(!quick.complete && quick.nodes_approximated >= 1);
+        }
+        prop_assert!(quick.points_tested + quick.points_approximated <= shell.points().len() as u64);
     }
-    prop_assert!(quick.points_tested + quick.points_approximated <= shell.points().len() as u64);
     Ok(())
 }
 
@@ -170,16 +180,22 @@ pub fn check_thread_independence<S: PointshellData + Sync + ?Sized>(voxmap: &Cac
         Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap(),
         Pose::new([0.31, -0.2, 0.4], [0.9, 0.1, -0.3, 0.2]).unwrap(),
     ] {
-        let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| contact(voxmap, shell, &pose, &ContactParams::default()).unwrap())
-        };
-        let one = run(1);
-        assert!(one.points_in_contact > 8192, "{one:?}");
-        for threads in [2, 3, 8] {
-            assert_same(&run(threads), &one, &format!("{threads} threads"));
+        for penetration in [Penetration::Distance, Penetration::Sharp] {
+            let params = ContactParams {
+                penetration,
+                ..Default::default()
+            };
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                pool.install(|| contact(voxmap, shell, &pose, &params).unwrap())
+            };
+            let one = run(1);
+            assert!(one.points_in_contact > 8192, "{one:?}");
+            for threads in [2, 3, 8] {
+                assert_same(&run(threads), &one, &format!("{penetration:?}, {threads} threads"));
+            }
+            let brute = contact_brute_force(voxmap, shell, &pose, &params).unwrap();
+            assert_same(&brute, &one, &format!("{penetration:?}, brute force"));
         }
-        let brute = contact_brute_force(voxmap, shell, &pose, &ContactParams::default()).unwrap();
-        assert_same(&brute, &one, "brute force");
     }
 }

@@ -36,7 +36,7 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
     let shell = ball_shell(0.3, 8, 0.1);
     let pose = Pose::new([0.0; 3], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let dims = voxmap.grid().dims.map(|d| d as f64);
-    for penetration in [Penetration::Distance, Penetration::Layers] {
+    for penetration in [Penetration::Distance, Penetration::Layers, Penetration::Sharp] {
         let params = ContactParams {
             penetration,
             ..ContactParams::default()
@@ -101,35 +101,44 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
                     continue;
                 }
                 // What the proof claims: no voxel the point's penetration reads is ≥ 0 (its
-                // own with the layers, its cell's eight with distances); and so, with
-                // distances, that the blend is not positive.
+                // own with the layers, its cell's eight with distances; with the sharp blend
+                // those eight are −3 or less); and so, with distances, that the blend is not
+                // positive.
                 let reads: Vec<DVec3> = match penetration {
                     Penetration::Layers => vec![p],
-                    Penetration::Distance => {
+                    Penetration::Distance | Penetration::Sharp => {
                         let lower = (p - 0.5).floor() + 0.5;
                         (0..8)
                             .map(|j| lower + DVec3::new((j & 1) as f64, ((j >> 1) & 1) as f64, (j >> 2) as f64))
                             .collect()
                     }
                 };
+                let most = if penetration == Penetration::Sharp { -3 } else { -1 };
                 for q in reads {
-                    let value = cur.in_grid(q).map_or(-1, |(v, _)| v);
+                    let value = cur.in_grid(q).map_or(most, |(v, _)| v);
                     assert!(
-                        value < 0,
+                        value <= most,
                         "{penetration:?}: the sphere at {u} of radius {r} was culled, but {p} reads a voxel of {value} at {q}"
                     );
                 }
                 if penetration == Penetration::Distance {
                     assert!(cur.distance_at(p) <= 0.0, "{p} in contact in a culled sphere");
                 }
+                if penetration == Penetration::Sharp {
+                    assert!(cur.sharp_distance_at(p) <= 0.0, "{p} in contact in a culled sphere");
+                }
             }
         }
         cur.finish().unwrap();
         assert!(outside > 2_000, "{penetration:?}: only {outside} spheres culled");
-        assert!(
-            beyond_chessboard > 200,
-            "{penetration:?}: only {beyond_chessboard} culled by the centre's place in its voxel"
-        );
+        // With the sharp blend and 3 layers, a centre's value proves no sphere outside (it
+        // needs k − 3.5 + its place in its voxel): only the stored bricks around it do.
+        if penetration != Penetration::Sharp {
+            assert!(
+                beyond_chessboard > 200,
+                "{penetration:?}: only {beyond_chessboard} culled by the centre's place in its voxel"
+            );
+        }
     }
 }
 
