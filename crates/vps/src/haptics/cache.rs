@@ -27,6 +27,7 @@ use occupancy::Occupancy;
 
 mod distance;
 mod occupancy;
+mod sharp;
 
 /// Shards of the map: enough that two threads rarely meet on one lock.
 const SHARDS: usize = 64;
