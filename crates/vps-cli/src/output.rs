@@ -1,7 +1,7 @@
 //! Writing to standard output and standard error without panicking.
 //!
 //! `println!` panics when stdout is a full disk or a closed pipe. Every line the CLI prints
-//! goes through [`outln!`] and [`errln!`] instead, which turn a failed write into an error
+//! goes through `outln!` and `errln!` instead, which turn a failed write into an error
 //! that ends the run: exit 1 with a one-line message, or quietly for a closed pipe (as
 //! `vps info x.vxm | head -1` users expect).
 

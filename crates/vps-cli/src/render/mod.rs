@@ -1,4 +1,4 @@
-//! Pictures the CLI writes: slice pictures of voxmaps ([`slice`], docs/SLICES.md) and line
+//! Pictures the CLI writes: slice pictures of voxmaps ([`mod@slice`], docs/SLICES.md) and line
 //! plots of series ([`plot`]), drawn with `plotters` into memory and written as PNG files.
 //!
 //! Text uses Noto Sans Bold (bold reads better in small light-on-dark text), embedded in the binary, so that pictures look the same on every

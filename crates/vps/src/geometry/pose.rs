@@ -33,7 +33,7 @@ pub enum PoseError {
         /// Quaternion as given, w first.
         rotation: [f64; 4],
     },
-    /// A translation component is beyond [`MAX_TRANSLATION`] in absolute value: moving a
+    /// A translation component is beyond `MAX_TRANSLATION` (10³⁰⁰) in absolute value: moving a
     /// point by it may overflow.
     #[error("pose translation {0:?} is too large: each component at most {MAX_TRANSLATION:e} in absolute value")]
     TranslationTooLarge([f64; 3]),
@@ -74,7 +74,7 @@ impl Pose {
     };
 
     /// A pose from a translation and a quaternion given w first, as in the text form. The
-    /// translation must be within [`MAX_TRANSLATION`], so that posed points stay finite. The quaternion is normalised; it must be finite and not
+    /// translation must be within `MAX_TRANSLATION` (10³⁰⁰), so that posed points stay finite. The quaternion is normalised; it must be finite and not
     /// zero. It is scaled by its largest
     /// component first, so that its length neither overflows (`1e200 0 0 0`) nor underflows
     /// (`1e-300 0 0 0`): both are the identity.

@@ -8,7 +8,7 @@
 //! Binary STL ([`stl`]), PLY ([`ply`]) and glTF/GLB ([`gltf`]) are read through the
 //! `stl_io`, `ply-rs-bw` and `gltf` crates, ASCII STL by a reader of our own (every solid,
 //! each an object). [`Mesh::load`] chooses the reader by the file's extension or, without a
-//! known one, by its content ([`format`]).
+//! known one, by its content ([`format`](mod@format)).
 
 use std::io::BufReader;
 use std::ops::Range;

@@ -17,7 +17,7 @@
 //!    distances, the signs, then the bricks and inside runs go straight to the
 //!    [`VoxmapWriter`]. The result is byte for byte the file of the in-memory path.
 //!    With signed distances, a slab's bricks wait for the next slab's values, and go to the
-//!    file with their distances (see [`DistanceSlabs`]): byte for byte again.
+//!    file with their distances (see `DistanceSlabs`): byte for byte again.
 //!
 //! Slabs are as thick as the memory limit allows, from the surface counts of pass 1.
 

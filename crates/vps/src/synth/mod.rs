@@ -19,7 +19,7 @@
 //! budget split roughly as body 30 %, small parts 40 %, pipes 10 %, the rest large parts and
 //! open surfaces. Generation is sequential and uses only [`SplitMix`], so a seed gives
 //! bit-identical output on every run and any thread count. Coordinates are snapped to 1 µm
-//! (0.001 mm), so [`write_obj`] writes them exactly in at most three decimals and they load
+//! (0.001 mm), so [`write_obj`](crate::mesh::obj_write::write_obj) writes them exactly in at most three decimals and they load
 //! back unchanged.
 //!
 //! Names: `body`, `tyre_fl`, `rim_fl`, `lug_fl_0`, `engine_block`, `seat_fl_cushion`,

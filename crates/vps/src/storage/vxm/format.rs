@@ -38,15 +38,16 @@ pub const INDEX_ENTRY_BYTES: usize = 24;
 pub const RUN_ENTRY_BYTES: usize = 16;
 
 /// Codec id of version 1: zstd frames without their magic number, over the bricks'
-/// values after the "previous voxel" predictor (see [`encode_brick`]).
+/// values after the "previous voxel" predictor (see [`encode_brick`](super::codec::encode_brick)).
 pub const CODEC_ZSTD_DELTA: u8 = 1;
 
 /// Codec id of version 2: as [`CODEC_ZSTD_DELTA`], over the values' residuals followed by the
-/// distances' (see [`encode_brick_with_distances`]).
+/// distances' (see [`encode_brick_with_distances`](super::codec::encode_brick_with_distances)).
 pub const CODEC_ZSTD_DELTA_DISTANCE: u8 = 2;
 
 /// Codec id of version 3: as [`CODEC_ZSTD_DELTA_DISTANCE`], with the distances of the voxels
-/// a contact reads only (see [`encode_brick_with_read_distances`]).
+/// a contact reads only (see
+/// [`encode_brick_with_read_distances`](super::codec::encode_brick_with_read_distances)).
 pub const CODEC_ZSTD_DELTA_READ_DISTANCE: u8 = 3;
 
 /// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
