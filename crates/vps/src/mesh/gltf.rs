@@ -180,10 +180,10 @@ fn shown(uri: &str) -> String {
 }
 
 /// The bytes a buffer URI names: base64 `data:` or a relative file name, percent-escapes
-/// decoded (`part%20one.bin` is the file `part one.bin`, as exporters write it). Of a file,
-/// only the buffer's `length` bytes are read, and only from a regular file that has them: a URI
-/// naming `/dev/zero` would otherwise be read without end, a pipe would wait for a writer, and
-/// a huge file would be read whole.
+/// decoded (`part%20one.bin` is the file `part one.bin`, as exporters write it). Of a file, at
+/// most the buffer's `length` bytes are read (fewer is [`load_buffers`]'s error, as for any
+/// source), and only from a regular file: a URI naming `/dev/zero` would otherwise be read
+/// without end, a pipe would wait for a writer, and a huge file would be read whole.
 fn read_uri(uri: &str, base: Option<&Path>, length: usize) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (kind, data) = rest.split_once(',').ok_or("a data URI without a comma")?;
@@ -207,16 +207,8 @@ fn read_uri(uri: &str, base: Option<&Path>, length: usize) -> Result<Vec<u8>, St
     let path = base.join(&*name);
     let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
     let file = open_without_waiting(&path).map_err(cannot)?;
-    let meta = file.metadata().map_err(cannot)?;
-    if !meta.is_file() {
+    if !file.metadata().map_err(cannot)?.is_file() {
         return Err(format!("{} is not a regular file", path.display()));
-    }
-    if meta.len() < length as u64 {
-        return Err(format!(
-            "{} has {} bytes, fewer than the buffer declares",
-            path.display(),
-            meta.len()
-        ));
     }
     let mut data = Vec::new();
     file.take(length as u64).read_to_end(&mut data).map_err(cannot)?;

@@ -8,7 +8,7 @@ use glam::DVec3;
 
 use super::distance::{cell, cell_anywhere, BrickSource};
 use super::Cursor;
-use crate::grid::{BRICK, BRICK_SHIFT};
+use crate::grid::{local_index, BRICK_SHIFT};
 use crate::voxmap::DISTANCE_STEP;
 
 impl Cursor<'_> {
@@ -37,10 +37,10 @@ impl Cursor<'_> {
             match self.brick_source(b.map(|c| (c >> BRICK_SHIFT) as u32)) {
                 BrickSource::Uniform(v) => return (v as f64).clamp(lo, hi) * DISTANCE_STEP,
                 BrickSource::Stored(ds) => {
-                    let l = b.map(|c| ((c & m) - 1) as usize);
-                    for (k, plane) in samples.iter_mut().enumerate() {
-                        for (j, line) in plane.iter_mut().enumerate() {
-                            let at = ((l[2] + k) * BRICK as usize + l[1] + j) * BRICK as usize + l[0];
+                    let l = b.map(|c| ((c & m) - 1) as u32);
+                    for (k, plane) in (0..).zip(samples.iter_mut()) {
+                        for (j, line) in (0..).zip(plane.iter_mut()) {
+                            let at = local_index(l[0], l[1] + j, l[2] + k);
                             for (i, f) in line.iter_mut().enumerate() {
                                 *f = ds[at + i] as f64;
                             }
@@ -92,8 +92,7 @@ impl Cursor<'_> {
                                 line[(x - first[0]) as usize] = match source {
                                     BrickSource::Uniform(v) => v as f64,
                                     BrickSource::Stored(ds) => {
-                                        ds[(((z & m) << (2 * BRICK_SHIFT)) | ((y & m) << BRICK_SHIFT) | (x & m))
-                                            as usize] as f64
+                                        ds[local_index((x & m) as u32, (y & m) as u32, (z & m) as u32)] as f64
                                     }
                                 };
                             }

@@ -84,30 +84,31 @@ impl Frame<'_> {
         acc.points_tested += range.len() as u64;
         let points = &self.points[range.clone()];
         let normals = &self.normals[range.clone()];
-        if self.sharp {
+        if self.distance {
             let mut sums = Sums::of(acc, range.start);
             let weights = &self.weights[range];
-            for (k, ((p, n), w)) in points.iter().zip(normals).zip(weights).enumerate() {
-                let d = self.sharp_depth(cur, self.units(*p));
-                if d > 0.0 {
-                    sums.touching += 1;
-                    sums.add(k, *p, n.as_dvec3(), d * f64::from(*w), d);
+            if self.sharp {
+                // Point by point: the 64 voxels of each are gathered brick by brick.
+                for (k, ((p, n), w)) in points.iter().zip(normals).zip(weights).enumerate() {
+                    let d = self.sharp_depth(cur, self.units(*p));
+                    if d > 0.0 {
+                        sums.touching += 1;
+                        sums.add(k, *p, n.as_dvec3(), d * f64::from(*w), d);
+                    }
                 }
+            } else {
+                distance_batches(self, Some(cur), points, normals, weights, 0.0, &mut sums);
             }
-            sums.store(acc);
-        } else if self.distance {
-            let mut sums = Sums::of(acc, range.start);
-            let weights = &self.weights[range];
-            distance_batches(self, Some(cur), points, normals, weights, 0.0, &mut sums);
             sums.store(acc);
         } else {
             self.test_points_layers(cur, range.start, points, normals, acc);
         }
     }
 
-    /// [`Frame::test_points`] of points that [`Frame::classify`] found [`Class::Deep`](super::Class::Deep): every
-    /// one's voxel centres (eight, or 64 with the sharp blend) are far inside, so its distance is the reach, and nothing is
-    /// looked up. The same bits as `test_points`: eight equal corners blend to their value.
+    /// [`Frame::test_points`] of points that [`Frame::classify`] found
+    /// [`Class::Deep`](super::Class::Deep): every one's voxel centres (eight, or 64 with the
+    /// sharp blend) are far inside, so its distance is the reach, and nothing is looked up. The
+    /// same bits as `test_points`: equal corners blend to their value.
     #[inline]
     pub(super) fn test_points_deep(&self, range: Range<usize>, acc: &mut Contact) {
         acc.points_tested += range.len() as u64;
