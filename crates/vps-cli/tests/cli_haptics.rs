@@ -243,6 +243,7 @@ fn bad_contact_input_fails_cleanly() {
 fn bench_sweep_json_and_plot() {
     let f = fixture();
     let png_path = f.dir.path().join("x.png");
+    let csv_path = f.dir.path().join("samples.csv");
     let j = json(&vps(&[
         "haptics-bench",
         p(&f.vxm),
@@ -250,11 +251,46 @@ fn bench_sweep_json_and_plot() {
         "--sweep",
         "--steps",
         "120",
+        "--repeat",
+        "2",
         "--plot",
         p(&png_path),
+        "--samples",
+        p(&csv_path),
         "--brute-force",
         "--json",
     ]));
+    // One line a query, in the order replayed, whose counts and times make the figures.
+    let csv = std::fs::read_to_string(&csv_path).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("query,pass,pose,micros,points_tested,points_in_contact,fx,fy,fz,complete")
+    );
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_string).collect()).collect();
+    assert_eq!(rows.len(), 240);
+    let (mut max_us, mut max_tested, mut in_contact) = (0.0f64, 0u64, 0);
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r.len(), 10, "{r:?}");
+        assert_eq!(
+            (r[0].parse::<usize>().unwrap(), r[1].parse::<usize>().unwrap()),
+            (i, i / 120)
+        );
+        assert_eq!(r[2].parse::<usize>().unwrap(), i % 120);
+        max_us = max_us.max(r[3].parse().unwrap());
+        max_tested = max_tested.max(r[4].parse().unwrap());
+        let force: Vec<f64> = r[6..9].iter().map(|x| x.parse().unwrap()).collect();
+        in_contact += (r[5] != "0" || force.iter().any(|&f| f != 0.0)) as u64;
+        assert_eq!(r[9], "true");
+    }
+    // The CSV prints microseconds to three places.
+    assert!(
+        (max_us - j["max_us"].as_f64().unwrap()).abs() <= 0.0005,
+        "{max_us} {}",
+        j["max_us"]
+    );
+    assert_eq!(max_tested, j["points_tested_per_query"]["max"].as_u64().unwrap());
+    assert_eq!(in_contact, j["queries_in_contact"].as_u64().unwrap());
     for key in [
         "p50_us",
         "p99_us",
@@ -270,7 +306,7 @@ fn bench_sweep_json_and_plot() {
     ] {
         assert!(j.get(key).is_some(), "missing {key} in {j}");
     }
-    assert_eq!(j["queries"], 120);
+    assert_eq!(j["queries"], 240);
     let lat = &j["latency_us"];
     let (p50, p99, max) = (
         lat["p50"].as_f64().unwrap(),
@@ -282,13 +318,13 @@ fn bench_sweep_json_and_plot() {
     assert!(j["points_per_ms"].as_f64().unwrap() > 0.0);
     // The sweep starts clear and ends in contact.
     let hits = j["queries_in_contact"].as_u64().unwrap();
-    assert!((20..=100).contains(&hits), "{hits} of 120 in contact");
+    assert!((40..=200).contains(&hits), "{hits} of 240 in contact");
     assert!(j["points_tested_per_query"]["max"].as_u64().unwrap() > 0);
     // The sweep moves through contact, so the force changes between some queries.
     let jump = j["max_force_jump"].as_f64().unwrap();
     assert!(jump.is_finite() && jump > 0.0, "{jump}");
     assert_eq!(j["brute_force"]["mismatches"], 0);
-    assert_eq!(j["brute_force"]["figures"]["queries"], 120);
+    assert_eq!(j["brute_force"]["figures"]["queries"], 240);
 
     let bytes = std::fs::read(&png_path).unwrap();
     let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
@@ -357,6 +393,11 @@ fn bench_replays_a_trajectory_file() {
     assert_clean_failure(&o, "repeat");
     let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--stiffness", "-2"]);
     assert_clean_failure(&o, "stiffness");
+    // Refused before any query, and nothing left behind.
+    let nowhere = f.dir.path().join("no such folder").join("samples.csv");
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--samples", p(&nowhere)]);
+    assert_clean_failure(&o, "cannot write samples");
+    assert!(!nowhere.parent().unwrap().exists());
 }
 
 #[test]

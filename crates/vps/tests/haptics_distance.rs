@@ -140,6 +140,21 @@ fn interpolation_blends_the_eight_stored_distances_around_a_point() {
                 o[2] + rng.range(-1.0, 9.0),
             )
         };
+        // A quarter of them with coordinates on the awkward values: voxel faces and centres,
+        // and the doubles just below centres, where `u + ½` can round up to the next integer
+        // (0.5 − 2⁻⁵⁴ + ½ rounds to 1, yet the floor of its `u − ½` is −1).
+        let mut u = u;
+        if rng.below(4) == 0 {
+            for a in 0..3 {
+                let whole = u[a].floor().clamp(0.0, dims[a] - 1.0);
+                u[a] = match rng.below(4) {
+                    0 => whole,
+                    1 => whole + 0.5,
+                    2 => (whole + 0.5).next_down(),
+                    _ => 0.5f64.next_down(),
+                };
+            }
+        }
         let c = u - 0.5;
         let f = c.floor();
         let t = c - f;

@@ -69,6 +69,10 @@ pub struct HapticsBenchArgs {
     /// Write a PNG plot of force magnitude and points in contact over the queries.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write one CSV line per query (pass, pose, microseconds, points tested and in contact,
+    /// force): to see which queries make the latency's tail.
+    #[arg(long)]
+    pub samples: Option<PathBuf>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -132,12 +136,13 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
         Some(path) => Some(read_trajectory(path).with_context(|| format!("bad trajectory {}", path.display()))?),
         None => None,
     };
-    if let Some(plot) = &a.plot {
-        if let Some(parent) = plot.parent().filter(|p| !p.as_os_str().is_empty()) {
+    for (what, path) in [("plot", &a.plot), ("samples", &a.samples)] {
+        let Some(path) = path else { continue };
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             if !parent.is_dir() {
                 bail!(
-                    "cannot write plot {}: {} is not a directory",
-                    plot.display(),
+                    "cannot write {what} {}: {} is not a directory",
+                    path.display(),
                     parent.display()
                 );
             }
@@ -233,6 +238,9 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
 
     if let Some(plot) = &a.plot {
         report::write_plot(plot, &samples, shell.points().len(), params.budget.is_some())?;
+    }
+    if let Some(path) = &a.samples {
+        report::write_samples(path, &samples, poses.len())?;
     }
     let run = report::Run {
         vxm_path: &vxm_path,

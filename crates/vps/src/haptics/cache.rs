@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use glam::DVec3;
 use rustc_hash::FxHashMap;
 
-use crate::grid::{Grid, BRICK_SHIFT, BRICK_VOXELS};
+use crate::grid::{split_voxel, Grid, BRICK_SHIFT, BRICK_VOXELS};
 use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
 use crate::voxmap::{far_distance, outside_value, BrickSlot, StoredBrick, Voxmap, VoxmapCounts};
@@ -457,14 +457,13 @@ impl<'a> Cursor<'a> {
     /// The value of voxel `v`, which must lie in the grid.
     #[inline(always)]
     fn voxel(&mut self, v: [u32; 3]) -> i8 {
-        self.select(v.map(|c| c >> BRICK_SHIFT));
+        let (b, local) = split_voxel(v);
+        self.select(b);
         let Some(table) = &self.table else {
             return self.outside;
         };
-        let m = (1u32 << BRICK_SHIFT) - 1;
-        let local = (v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT));
         match &table.slots[self.last_at] {
-            BrickSlot::Stored(brick) => brick.values[local as usize],
+            BrickSlot::Stored(brick) => brick.values[local],
             BrickSlot::Tile(t) => *t,
         }
     }

@@ -192,10 +192,9 @@ pub(super) struct Frame<'a> {
     dims: DVec3,
     layers: i32,
     outside: i8,
-    /// Interpolated distances (not layers) measure the penetration.
-    pub(super) distance: bool,
-    /// ... blended by [`Cursor::sharp_distance_at`] (with `distance`).
-    pub(super) sharp: bool,
+    /// How penetration is measured: as asked, or with the layers when the voxmap has no
+    /// distances.
+    pub(super) measure: Penetration,
     /// The clamp of the distances, in voxels.
     reach: f64,
 }
@@ -243,8 +242,11 @@ impl<'a> Frame<'a> {
             dims: DVec3::new(grid.dims[0] as f64, grid.dims[1] as f64, grid.dims[2] as f64),
             layers: voxmap.layers() as i32,
             outside: crate::voxmap::outside_value(voxmap.layers()),
-            distance: params.penetration != Penetration::Layers && voxmap.has_distances(),
-            sharp: params.penetration == Penetration::Sharp && voxmap.has_distances(),
+            measure: if voxmap.has_distances() {
+                params.penetration
+            } else {
+                Penetration::Layers
+            },
             reach: crate::voxmap::distance_reach(voxmap.layers()),
         })
     }
@@ -289,18 +291,12 @@ impl<'a> Frame<'a> {
         let Some((value, v)) = cur.in_grid(u) else {
             return (0.0, None);
         };
-        let d = if self.sharp {
-            self.sharp_depth(cur, u)
-        } else if self.distance {
-            if value <= -2 {
-                0.0
-            } else {
-                self.s * cur.distance_at(u)
-            }
-        } else if value < 0 {
-            0.0
-        } else {
-            self.penetration(value, v, u, self.rot * n.as_dvec3())
+        let d = match self.measure {
+            Penetration::Sharp => self.sharp_depth(cur, u),
+            Penetration::Distance if value <= -2 => 0.0,
+            Penetration::Distance => self.s * cur.distance_at(u),
+            Penetration::Layers if value < 0 => 0.0,
+            Penetration::Layers => self.penetration(value, v, u, self.rot * n.as_dvec3()),
         };
         (d, Some(value))
     }
@@ -310,7 +306,7 @@ impl<'a> Frame<'a> {
     /// or with the layers a voxel `≥ 0`.
     #[inline]
     pub(super) fn counts_in_contact(&self, depth: f64, value: Option<i8>) -> bool {
-        if self.distance {
+        if self.reads_distances() {
             depth > 0.0
         } else {
             value.is_some_and(|v| v >= 0)
@@ -323,7 +319,12 @@ impl<'a> Frame<'a> {
     /// 3.5`, rounded down).
     #[inline]
     pub(super) fn free_travel(&self, value: i8) -> i32 {
-        -(value as i32) - self.reach_voxels() - self.sharp as i32
+        let near = match self.measure {
+            Penetration::Layers => 1,
+            Penetration::Distance => 2,
+            Penetration::Sharp => 4,
+        };
+        -(value as i32) - near
     }
 
     /// How far beyond its own voxel a point's penetration reads: one voxel for the layers,
@@ -331,7 +332,17 @@ impl<'a> Frame<'a> {
     /// 4 × 4 × 4).
     #[inline]
     fn reach_voxels(&self) -> i32 {
-        1 + self.distance as i32 + self.sharp as i32
+        match self.measure {
+            Penetration::Layers => 1,
+            Penetration::Distance => 2,
+            Penetration::Sharp => 3,
+        }
+    }
+
+    /// Whether the penetration is a blend of the voxmap's distances, not the layers.
+    #[inline]
+    pub(super) fn reads_distances(&self) -> bool {
+        self.measure != Penetration::Layers
     }
 
     /// The sharp penetration ([`Penetration::Sharp`]) of a point at grid units `u`: 0 beyond
@@ -414,7 +425,11 @@ impl<'a> Frame<'a> {
             // reach deep; with the layers each lies in a voxel ≥ 0, which the rule below
             // proves only for spheres under the layers' few voxels across (at a deep pose of
             // the built-in plunge this took the nodes tested from 10,429 to 6,875).
-            Ok(if self.distance { Class::Deep } else { Class::Inside })
+            Ok(if self.reads_distances() {
+                Class::Deep
+            } else {
+                Class::Inside
+            })
         } else if value >= 0 && r.floor() + 2.0 <= value as f64 {
             Ok(Class::Inside)
         } else {
@@ -431,14 +446,12 @@ impl<'a> Frame<'a> {
     fn outside_radius(&self, value: i32, v: [u32; 3], u: DVec3) -> f64 {
         let f = u - DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let slack = f.min(DVec3::ONE - f).min_element();
-        let k = -value as f64;
-        if self.sharp {
-            k - 3.5 + slack
-        } else if self.distance {
-            k - 1.5 + slack
-        } else {
-            k - 1.0 + slack
-        }
+        let near = match self.measure {
+            Penetration::Layers => 1.0,
+            Penetration::Distance => 1.5,
+            Penetration::Sharp => 3.5,
+        };
+        -value as f64 - near + slack
     }
 
     /// Whether every voxel a point within `r` of voxel `v` (a far-inside tile's) reads is far
@@ -584,7 +597,7 @@ impl<'a> Frame<'a> {
         let count = node.point_count as f64;
         // Each point's penetration is at most s·v_max plus its distance to its voxel centre;
         // an interpolated distance, at most the reach it is clamped to.
-        let d_max = if self.distance {
+        let d_max = if self.reads_distances() {
             self.s * self.reach
         } else {
             self.s * (v_max as f64 + 0.75f64.sqrt())
@@ -595,10 +608,10 @@ impl<'a> Frame<'a> {
         let axis = node.cone_axis().as_dvec3();
         if value >= 0 && axis.length_squared() > 0.0 {
             let n = axis.normalize();
-            let d = if self.distance {
+            let d = if self.reads_distances() {
                 // Weighted like its points, which keeps the estimate within the bound: the
                 // weights are at most 1.
-                let d = if self.sharp {
+                let d = if self.measure == Penetration::Sharp {
                     cur.sharp_distance_at(u)
                 } else {
                     cur.distance_at(u)

@@ -1,5 +1,6 @@
 //! What `vps haptics-bench` shows: the plot, and the figures as one JSON object or a table.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
@@ -71,6 +72,31 @@ pub fn write_plot(plot: &Path, samples: &[Sample], points: usize, budget: bool) 
         plot,
     )
     .with_context(|| format!("writing plot {}", plot.display()))
+}
+
+/// Write `samples`, the queries of passes over `poses` poses, as CSV into `path` (through a
+/// temporary file).
+pub fn write_samples(path: &Path, samples: &[Sample], poses: usize) -> Result<()> {
+    let mut out = String::from("query,pass,pose,micros,points_tested,points_in_contact,fx,fy,fz,complete\n");
+    for (i, s) in samples.iter().enumerate() {
+        let f = s.force;
+        // Infallible: writing to a String.
+        let _ = writeln!(
+            out,
+            "{i},{},{},{:.3},{},{},{},{},{},{}",
+            i / poses.max(1),
+            i % poses.max(1),
+            s.micros,
+            s.points_tested,
+            s.points_in_contact,
+            f.x,
+            f.y,
+            f.z,
+            s.complete
+        );
+    }
+    crate::interrupt::clean_beside(path)?;
+    vps::storage::write_atomically(path, out.as_bytes()).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Print the run as `--json` or the table asks; an error when the two methods disagree.

@@ -7,7 +7,7 @@ use std::ops::Range;
 use glam::DVec3;
 
 use super::{same, Cursor};
-use crate::grid::{BRICK, BRICK_SHIFT};
+use crate::grid::{split_voxel, BRICK, BRICK_SHIFT};
 use crate::voxmap::{BrickDistances, BrickSlot, DISTANCE_STEP};
 
 /// Edge of an apron: a brick's 8 voxels and the first voxel of the next brick, so that the
@@ -40,11 +40,9 @@ impl Cursor<'_> {
         if (0..3).any(|a| v[a] < 0 || v[a] >= self.dims[a] as i64) {
             return self.far_out;
         }
-        let v = v.map(|c| c as u32);
-        let m = (1u32 << BRICK_SHIFT) - 1;
-        let local = (v[0] & m) | ((v[1] & m) << BRICK_SHIFT) | ((v[2] & m) << (2 * BRICK_SHIFT));
-        match self.brick_source(v.map(|c| c >> BRICK_SHIFT)) {
-            BrickSource::Stored(d) => d[local as usize],
+        let (b, local) = split_voxel(v.map(|c| c as u32));
+        match self.brick_source(b) {
+            BrickSource::Stored(d) => d[local],
             BrickSource::Uniform(d) => d,
         }
     }
@@ -382,11 +380,17 @@ fn neighbour(d: usize) -> [usize; 3] {
 /// its lower corner voxel and the fractions of the way from it to the upper one.
 #[inline(always)]
 pub(super) fn cell(u: DVec3) -> ([i64; 3], DVec3) {
-    // The lower corner is floor(u − ½) = trunc(u + ½) − 1, as u ≥ 0 (both sums are exact below
-    // 2⁵²): a truncation, not `f64::floor`, a library call on targets without SSE4.1, nor a
-    // truncation with a step down for negative values (18 % of a deep query, measured).
-    let b = [u.x, u.y, u.z].map(|x| (x + 0.5) as i64 - 1);
-    (b, u - 0.5 - DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64))
+    // The lower corner is floor(u − ½) = trunc(u + ½) − 1, as u ≥ 0: a truncation, not
+    // `f64::floor`, a library call on targets without SSE4.1, nor a truncation with a step down
+    // for negative values (18 % of a deep query, measured). u − ½ is exact, but u + ½ is not
+    // below ½: 0.5 − 2⁻⁵⁴ + ½ rounds to 1, whose corner 0 lies above u − ½ = −2⁻⁵⁴. The step
+    // back down keeps the cell `distances_at` finds (its floor), so the same bits.
+    let c = u - 0.5;
+    let b = [0, 1, 2].map(|a| {
+        let b = (u[a] + 0.5) as i64 - 1;
+        b - (c[a] < b as f64) as i64
+    });
+    (b, c - DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64))
 }
 
 /// [`cell`] of any point: beyond the grid too, and not finite (which saturates, so far).
@@ -399,4 +403,33 @@ pub(super) fn cell_anywhere(u: DVec3) -> ([i64; 3], DVec3) {
     };
     let b = [floor(c.x), floor(c.y), floor(c.z)];
     (b, c - DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `cell`, the fast one, finds the cell `cell_anywhere` (a floor) finds, to the bit, on
+    /// the awkward coordinates: voxel faces and centres, and the doubles just beside them.
+    #[test]
+    fn the_fast_cell_is_the_floors_cell() {
+        let mut xs: Vec<f64> = vec![0.0, f64::MIN_POSITIVE, 1e-300, 0.25];
+        for whole in [0.0f64, 1.0, 2.0, 7.0, 8.0, 1023.0, 65_535.0, 1e9] {
+            for x in [whole, whole + 0.5] {
+                xs.extend([x.next_down(), x, x.next_up()]);
+            }
+        }
+        xs.retain(|&x| x >= 0.0);
+        for &x in &xs {
+            for u in [DVec3::splat(x), DVec3::new(x, 3.25, 0.75), DVec3::new(9.5, 0.0, x)] {
+                let (fast, slow) = (cell(u), cell_anywhere(u));
+                assert_eq!(fast.0, slow.0, "corner at {u:?}");
+                assert_eq!(
+                    fast.1.to_array().map(f64::to_bits),
+                    slow.1.to_array().map(f64::to_bits),
+                    "fractions at {u:?}"
+                );
+            }
+        }
+    }
 }

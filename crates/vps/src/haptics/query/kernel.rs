@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use glam::{DVec3, Vec3};
 
-use super::{Contact, Frame};
+use super::{Contact, Frame, Penetration};
 use crate::haptics::cache::Cursor;
 use crate::voxmap::{far_distance, DISTANCE_STEP};
 
@@ -84,10 +84,10 @@ impl Frame<'_> {
         acc.points_tested += range.len() as u64;
         let points = &self.points[range.clone()];
         let normals = &self.normals[range.clone()];
-        if self.distance {
+        if self.reads_distances() {
             let mut sums = Sums::of(acc, range.start);
             let weights = &self.weights[range];
-            if self.sharp {
+            if self.measure == Penetration::Sharp {
                 // Point by point: the 64 voxels of each are gathered brick by brick.
                 for (k, ((p, n), w)) in points.iter().zip(normals).zip(weights).enumerate() {
                     let d = self.sharp_depth(cur, self.units(*p));

@@ -12,13 +12,13 @@ use crate::{pointshell, voxelize, Mesh, Pointshell, Pose, VoxelizeParams, LEAF_S
 /// The static map's layers.
 const LAYERS: i32 = 3;
 
-/// A ball and a box whose faces lie on voxel faces, voxels of 0.1, [`LAYERS`] layers, with
+/// A ball and a box whose faces lie on voxel faces, voxels of 0.1, `layers` layers, with
 /// distances.
-fn voxmap() -> CachedVoxmap {
+fn voxmap(layers: i32) -> CachedVoxmap {
     let mut tris = sphere(DVec3::new(-0.6, 0.0, 0.0), 0.75, 24, 48);
     tris.extend(cuboid(DVec3::new(0.4, -0.5, -0.3), DVec3::new(1.2, 0.6, 0.5)));
     let mesh = Mesh::from_triangles("static", tris).unwrap();
-    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.1, LAYERS as u8)).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.1, layers as u8)).unwrap();
     let distances = signed_distances(&mesh, &vm);
     CachedVoxmap::in_memory(vm.with_distances(distances))
 }
@@ -32,11 +32,25 @@ fn ball_shell(radius: f64, stacks: u32, voxel: f64) -> Pointshell {
 
 #[test]
 fn a_sphere_found_outside_holds_no_point_in_contact() {
-    let voxmap = voxmap();
+    // With six layers the sharp blend's radius, k − 3.5 and the centre's place in its voxel,
+    // proves spheres outside too (with three it proves none: the stored bricks do).
+    for (layers, penetration) in [
+        (LAYERS, Penetration::Distance),
+        (LAYERS, Penetration::Layers),
+        (LAYERS, Penetration::Sharp),
+        (6, Penetration::Sharp),
+    ] {
+        spheres_found_outside_hold_no_point_in_contact(layers, penetration);
+    }
+}
+
+/// [`a_sphere_found_outside_holds_no_point_in_contact`] on the map of `layers` layers.
+fn spheres_found_outside_hold_no_point_in_contact(layers: i32, penetration: Penetration) {
+    let voxmap = voxmap(layers);
     let shell = ball_shell(0.3, 8, 0.1);
     let pose = Pose::new([0.0; 3], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let dims = voxmap.grid().dims.map(|d| d as f64);
-    for penetration in [Penetration::Distance, Penetration::Layers, Penetration::Sharp] {
+    {
         let params = ContactParams {
             penetration,
             ..ContactParams::default()
@@ -69,11 +83,16 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
             }
             outside += 1;
             // Culled although the old bound, `r < k − reach` with the chessboard layers
-            // alone, would have kept it: the centre's place in its voxel proved it. Only in
-            // the layers: beyond them, the stored bricks around the sphere may have proved it.
+            // alone (`k − 3.5` with the sharp blend, whose radius is never beyond `k − 3`),
+            // would have kept it: the centre's place in its voxel proved it. Only in the
+            // layers: beyond them, the stored bricks around the sphere may have proved it.
             if let Some((value, _)) = cur.in_grid(u) {
                 let k = -(value as i32);
-                beyond_chessboard += (k <= LAYERS && r >= (k - frame.reach_voxels()) as f64) as u32;
+                let old = match penetration {
+                    Penetration::Sharp => k as f64 - 3.5,
+                    _ => (k - frame.reach_voxels()) as f64,
+                };
+                beyond_chessboard += (k <= layers && r >= old) as u32;
             }
             // The rim along each axis and diagonal, where the proof is tight, and inside.
             let mut probes: Vec<DVec3> = Vec::new();
@@ -132,8 +151,9 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
         cur.finish().unwrap();
         assert!(outside > 2_000, "{penetration:?}: only {outside} spheres culled");
         // With the sharp blend and 3 layers, a centre's value proves no sphere outside (it
-        // needs k − 3.5 + its place in its voxel): only the stored bricks around it do.
-        if penetration != Penetration::Sharp {
+        // needs k − 3.5 + its place in its voxel, and the far value is −4): only the stored
+        // bricks around it do.
+        if penetration != Penetration::Sharp || layers > 3 {
             assert!(
                 beyond_chessboard > 200,
                 "{penetration:?}: only {beyond_chessboard} culled by the centre's place in its voxel"
@@ -145,7 +165,7 @@ fn a_sphere_found_outside_holds_no_point_in_contact() {
 #[test]
 fn a_query_on_the_calling_thread_gives_the_pools_bits() {
     // The haptic loop keeps small queries off the pool: the same sums in the same order.
-    let voxmap = voxmap();
+    let voxmap = voxmap(LAYERS);
     let shell = ball_shell(0.6, 24, 0.02);
     assert!(
         shell.points.len() > 4 * super::BLOCK_POINTS as usize,
