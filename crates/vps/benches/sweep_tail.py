@@ -51,7 +51,7 @@ def report(path):
     if warm:
         print(f"  warm: p50 {percentile(warm, 50):7.1f} us  p99 {percentile(warm, 99):7.1f} us (passes after the first)")
     print(f"  line: {1000 * slope:.2f} ns a point tested + {icept:.1f} us; p99 of its prediction {percentile(predicted, 99):7.1f} us")
-    print(f"  slowest {n_slow}: {in_cold} in the first 200 queries in contact of the first pass;"
+    print(f"  slowest {n_slow}: {in_cold} in the first pass's first 200 queries that test points;"
           f" mean {sum(us[i] for i in slowest) / n_slow:.1f} us against {sum(predicted[i] for i in slowest) / n_slow:.1f} predicted")
 
 
