@@ -75,7 +75,9 @@ pub fn check_culled_walk<S: PointshellData + ?Sized>(
     Ok(())
 }
 
-/// `c`'s deepest point is the first of the deepest, by every point's penetration in turn.
+/// `c`'s deepest point is the first of the deepest, by every point's penetration in turn; so
+/// are, with distances, its points in contact (those of a positive penetration) and, up to
+/// rounding, its force `K · R · Σ d·w·n`.
 pub fn assert_deepest_point<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
     shell: &S,
@@ -86,6 +88,30 @@ pub fn assert_deepest_point<S: PointshellData + ?Sized>(
     let depths: Vec<f64> = (0..shell.points().len() as u32)
         .map(|i| point_penetration(voxmap, shell, pose, params, i).unwrap())
         .collect();
+    // A voxmap without distances measures with the layers whatever was asked.
+    if params.penetration != Penetration::Layers && voxmap.has_distances() {
+        let touching = depths.iter().filter(|&&d| d > 0.0).count() as u64;
+        assert_eq!(
+            c.points_in_contact,
+            touching,
+            "points in contact, pose {}",
+            pose.to_text()
+        );
+        let (mut sum, mut scale) = (DVec3::ZERO, 0.0);
+        for ((&d, n), &w) in depths.iter().zip(shell.normals()).zip(shell.weights()) {
+            let f = d * f64::from(w) * n.as_dvec3();
+            sum += f;
+            scale += f.length();
+        }
+        let want = pose.matrix() * sum * params.stiffness;
+        let tol = 1e-9 * scale * params.stiffness + 1e-300;
+        assert!(
+            (c.force - want).length() <= tol,
+            "force {} against {want}, pose {}",
+            c.force,
+            pose.to_text()
+        );
+    }
     let deepest = depths.iter().copied().fold(0.0, f64::max);
     assert_eq!(c.max_penetration, deepest, "pose {}", pose.to_text());
     let first = depths.iter().position(|&d| d == deepest && d > 0.0).map(|i| i as u32);

@@ -90,7 +90,14 @@ impl Frame<'_> {
             if self.measure == Penetration::Sharp {
                 // Point by point: the 64 voxels of each are gathered brick by brick.
                 for (k, ((p, n), w)) in points.iter().zip(normals).zip(weights).enumerate() {
-                    let d = self.sharp_depth(cur, self.units(*p));
+                    let u = self.units(*p);
+                    // A point in a voxel of −4 or less adds nothing: its cell's eight centres
+                    // are −3 or less, which `Frame::outside_radius` (k − 3.5 > 0 here) proves
+                    // out of contact. Its value costs far less than its 64 voxels' blend.
+                    if cur.in_grid(u).is_some_and(|(value, _)| value <= -4) {
+                        continue;
+                    }
+                    let d = self.sharp_depth(cur, u);
                     if d > 0.0 {
                         sums.touching += 1;
                         sums.add(k, *p, n.as_dvec3(), d * f64::from(*w), d);
