@@ -398,6 +398,8 @@ fn bench_replays_a_trajectory_file() {
     let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--samples", p(&nowhere)]);
     assert_clean_failure(&o, "cannot write samples");
     assert!(!nowhere.parent().unwrap().exists());
+    let o = vps(&["haptics-bench", p(&f.vxm), p(&f.vps), "--samples", p(f.dir.path())]);
+    assert_clean_failure(&o, "is a directory");
 }
 
 #[test]
@@ -482,7 +484,7 @@ fn bench_slides_on_a_tilted_box() {
     let o = vps(&["haptics-bench", "--tilted-box", "--tilts", "0,nan"]);
     assert_clean_failure(&o, "--tilts");
     // Its scene is fixed: the sweep's options are refused, not ignored, and --tilts is its own.
-    for option in ["--steps", "--depth", "--repeat"] {
+    for option in ["--steps", "--depth", "--repeat", "--samples"] {
         let o = vps(&["haptics-bench", "--tilted-box", option, "2"]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(

@@ -10,17 +10,17 @@ how many ran in the first pass within the first 200 queries that test points (th
 the contact still being decoded). Standard library only.
 """
 import csv
+import math
 import sys
 
 
 def percentile(xs, q):
+    """Nearest rank, as `vps haptics-bench` computes its p50 and p99."""
     xs = sorted(xs)
     if not xs:
         return float("nan")
-    k = (len(xs) - 1) * q / 100
-    lo = int(k)
-    hi = min(lo + 1, len(xs) - 1)
-    return xs[lo] + (xs[hi] - xs[lo]) * (k - lo)
+    rank = max(1, math.ceil(q / 100 * len(xs)))
+    return xs[rank - 1]
 
 
 def line(xs, ys):
@@ -39,6 +39,9 @@ def report(path):
     passes = [int(r["pass"]) for r in rows]
     warm = [u for u, p in zip(us, passes) if p > 0]
     busy = [(t, u) for t, u in zip(tested, us) if t > 0]
+    if not busy:
+        print(f"{path}: no query tests any point")
+        return
     slope, icept = line([t for t, _ in busy], [u for _, u in busy])
     predicted = [slope * t + icept for t in tested]
     first_busy = [i for i, (t, p) in enumerate(zip(tested, passes)) if t > 0 and p == 0][:200]

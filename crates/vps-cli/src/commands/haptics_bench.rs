@@ -69,8 +69,9 @@ pub struct HapticsBenchArgs {
     /// Write a PNG plot of force magnitude and points in contact over the queries.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Write one CSV line per query (pass, pose, microseconds, points tested and in contact,
-    /// force): to see which queries make the latency's tail.
+    /// Write one CSV line per query of the sphere tree (pass and pose counted from 0,
+    /// microseconds, points tested and in contact, force): to see which queries make the
+    /// latency's tail.
     #[arg(long)]
     pub samples: Option<PathBuf>,
     /// Print one JSON object instead of the table.
@@ -96,7 +97,8 @@ pub struct HapticsBenchArgs {
     #[arg(
         long,
         conflicts_with_all = [
-            "builtin", "trajectory", "sweep", "plunge", "brute_force", "budget_us", "steps", "depth", "repeat"
+            "builtin", "trajectory", "sweep", "plunge", "brute_force", "budget_us", "steps", "depth", "repeat",
+            "samples"
         ]
     )]
     pub tilted_box: bool,
@@ -138,6 +140,9 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
     };
     for (what, path) in [("plot", &a.plot), ("samples", &a.samples)] {
         let Some(path) = path else { continue };
+        if path.is_dir() {
+            bail!("cannot write {what} {}: it is a directory", path.display());
+        }
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             if !parent.is_dir() {
                 bail!(

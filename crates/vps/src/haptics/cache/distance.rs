@@ -382,9 +382,9 @@ fn neighbour(d: usize) -> [usize; 3] {
 pub(super) fn cell(u: DVec3) -> ([i64; 3], DVec3) {
     // The lower corner is floor(u − ½) = trunc(u + ½) − 1, as u ≥ 0: a truncation, not
     // `f64::floor`, a library call on targets without SSE4.1, nor a truncation with a step down
-    // for negative values (18 % of a deep query, measured). u − ½ is exact, but u + ½ is not
-    // below ½: 0.5 − 2⁻⁵⁴ + ½ rounds to 1, whose corner 0 lies above u − ½ = −2⁻⁵⁴. The step
-    // back down keeps the cell `distances_at` finds (its floor), so the same bits.
+    // for negative values (18 % of a deep query, measured). u + ½ is not exact below ½:
+    // 0.5 − 2⁻⁵⁴ + ½ rounds to 1, whose corner 0 lies above u − ½ = −2⁻⁵⁴. The step back down
+    // keeps the cell `distances_at` finds (its floor of the same u − ½), so the same bits.
     let c = u - 0.5;
     let b = [0, 1, 2].map(|a| {
         let b = (u[a] + 0.5) as i64 - 1;
