@@ -314,17 +314,23 @@ impl<'a> Frame<'a> {
     }
 
     /// Voxels a point in a voxel of value `-k` must move before it can be in contact: no voxel
-    /// that can hold a point in contact is nearer (see [`Frame::classify`]): `k − 1` with the
-    /// layers, `k − 2` with distances, `k − 4` with the sharp blend (its outside radius `k −
-    /// 3.5`, rounded down).
+    /// that can hold a point in contact is nearer (see [`Frame::classify`]): the outside
+    /// radius `k − margin` rounded down, so `k − 1` with the layers, `k − 2` with distances,
+    /// `k − 4` with the sharp blend.
     #[inline]
     pub(super) fn free_travel(&self, value: i8) -> i32 {
-        let near = match self.measure {
-            Penetration::Layers => 1,
-            Penetration::Distance => 2,
-            Penetration::Sharp => 4,
-        };
-        -(value as i32) - near
+        -(value as i32) - self.outside_margin().ceil() as i32
+    }
+
+    /// What the outside radius of a centre of value `−k` is short of `k` voxels, before the
+    /// centre's place in its voxel (see [`Frame::classify`]).
+    #[inline(always)]
+    pub(super) fn outside_margin(&self) -> f64 {
+        match self.measure {
+            Penetration::Layers => 1.0,
+            Penetration::Distance => 1.5,
+            Penetration::Sharp => 3.5,
+        }
     }
 
     /// How far beyond its own voxel a point's penetration reads: one voxel for the layers,
@@ -446,12 +452,7 @@ impl<'a> Frame<'a> {
     fn outside_radius(&self, value: i32, v: [u32; 3], u: DVec3) -> f64 {
         let f = u - DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
         let slack = f.min(DVec3::ONE - f).min_element();
-        let near = match self.measure {
-            Penetration::Layers => 1.0,
-            Penetration::Distance => 1.5,
-            Penetration::Sharp => 3.5,
-        };
-        -value as f64 - near + slack
+        -value as f64 - self.outside_margin() + slack
     }
 
     /// Whether every voxel a point within `r` of voxel `v` (a far-inside tile's) reads is far

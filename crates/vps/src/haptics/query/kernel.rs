@@ -88,13 +88,14 @@ impl Frame<'_> {
             let mut sums = Sums::of(acc, range.start);
             let weights = &self.weights[range];
             if self.measure == Penetration::Sharp {
+                // The outside proof at radius 0 and any place in the voxel, `k > margin`:
+                // a point in a voxel below `−margin` (−4 or less for the sharp blend) adds
+                // nothing, and its value costs far less than its 64 voxels' blend.
+                let out_of_reach = -(self.outside_margin() as i32);
                 // Point by point: the 64 voxels of each are gathered brick by brick.
                 for (k, ((p, n), w)) in points.iter().zip(normals).zip(weights).enumerate() {
                     let u = self.units(*p);
-                    // A point in a voxel of −4 or less adds nothing: its cell's eight centres
-                    // are −3 or less, which `Frame::outside_radius` (k − 3.5 > 0 here) proves
-                    // out of contact. Its value costs far less than its 64 voxels' blend.
-                    if cur.in_grid(u).is_some_and(|(value, _)| value <= -4) {
+                    if cur.in_grid(u).is_some_and(|(value, _)| i32::from(value) < out_of_reach) {
                         continue;
                     }
                     let d = self.sharp_depth(cur, u);
