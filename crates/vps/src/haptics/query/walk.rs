@@ -1,0 +1,334 @@
+//! The walks of the sphere tree: the exact one, on the calling thread and the pool, and the
+//! time-critical one, breadth-first until its deadline.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::{Class, Contact, Frame, Penetration, BLOCK_POINTS};
+use crate::haptics::cache::Cursor;
+use crate::pointshell::shell::area_weight_f64;
+use crate::pointshell::tree::SphereNode;
+use crate::storage::StorageError;
+
+/// The exact walk tests the nodes of more points than this on the calling thread, which decides
+/// from the points left below them whether to wake the pool; below, it tests nodes on the pool
+/// too. Testing every node above the blocks there, on one thread, kept the other idle for a
+/// quarter of the first query after opening (its node tests decode bricks).
+const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
+
+/// The time-critical walk checks the clock every this many nodes.
+const CLOCK_EVERY: usize = 16;
+
+/// Planning the time-critical walk: the time per node assumed before any is measured, and the
+/// least assumed after (a level of a few nodes measures mostly the clock).
+const INITIAL_NODE_SECONDS: f64 = 100e-9;
+const MIN_NODE_SECONDS: f64 = 10e-9;
+
+/// What the exact walk below a node adds: the sums of its blocks, in block order, and the
+/// nodes it tested and culled above them.
+#[derive(Default)]
+struct BlockSums {
+    parts: Vec<Contact>,
+    nodes_tested: u64,
+    nodes_culled: u64,
+}
+
+impl BlockSums {
+    /// These sums followed by `o`'s.
+    fn append(&mut self, mut o: BlockSums) {
+        self.parts.append(&mut o.parts);
+        self.nodes_tested += o.nodes_tested;
+        self.nodes_culled += o.nodes_culled;
+    }
+}
+
+impl Frame<'_> {
+    /// Depth-first walk below `root` (already found not outside when `root_tested`), left
+    /// child first, so points are summed in index order. Below a node proved inside, every
+    /// point is tested without testing more nodes.
+    ///
+    /// Nodes whose points follow one another are tested as one range, so the batches of
+    /// `test_points` stay full (a leaf holds 8 to 16 points): the same points in the same
+    /// order, so the same sums.
+    pub(super) fn walk(&self, root: usize, root_tested: bool, acc: &mut Contact) -> Result<(), StorageError> {
+        let mut cur = self.voxmap.cursor();
+        let mut stack: Vec<(usize, bool)> = Vec::with_capacity(64);
+        stack.push((root, root_tested));
+        let mut pending = 0..0;
+        while let Some((i, tested)) = stack.pop() {
+            let node = &self.nodes[i];
+            let mut inside = false;
+            if !tested {
+                acc.nodes_tested += 1;
+                match self.classify(&mut cur, node)? {
+                    Class::Outside => {
+                        acc.nodes_culled += 1;
+                        continue;
+                    }
+                    Class::Inside => inside = true,
+                    Class::Deep => {
+                        self.test_points(&mut cur, std::mem::replace(&mut pending, 0..0), acc);
+                        self.test_points_deep(node.points(), acc);
+                        continue;
+                    }
+                    Class::Straddles => {}
+                }
+            }
+            match node.children() {
+                Some([a, b]) if !inside => {
+                    stack.push((b, false));
+                    stack.push((a, false));
+                }
+                _ => {
+                    let points = node.points();
+                    if points.start == pending.end {
+                        pending.end = points.end;
+                    } else {
+                        self.test_points(&mut cur, std::mem::replace(&mut pending, points), acc);
+                    }
+                }
+            }
+        }
+        self.test_points(&mut cur, pending, acc);
+        cur.finish()
+    }
+
+    /// The highest nodes of at most `max_points` points, in point order (the blocks, with
+    /// [`BLOCK_POINTS`]). With `cull`, those under a culled node are dropped, and those returned
+    /// have been tested.
+    pub(super) fn roots(&self, max_points: u32, cull: bool, acc: &mut Contact) -> Result<Vec<usize>, StorageError> {
+        let mut out = Vec::new();
+        if self.nodes.is_empty() {
+            return Ok(out);
+        }
+        let mut cur = self.voxmap.cursor();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i];
+            if cull {
+                acc.nodes_tested += 1;
+                if self.is_outside(&mut cur, node)? {
+                    acc.nodes_culled += 1;
+                    continue;
+                }
+            }
+            match node.children() {
+                Some([a, b]) if node.point_count > max_points => {
+                    stack.push(b);
+                    stack.push(a);
+                }
+                _ => out.push(i),
+            }
+        }
+        cur.finish()?;
+        Ok(out)
+    }
+
+    /// The exact walk: the nodes above the tasks ([`TASK_POINTS`]) tested here, then each task
+    /// down to its blocks and the blocks walked, on the pool when the tasks hold
+    /// `parallel_min_points` or more. The block sums are added in block order.
+    pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
+        let tasks = self.roots(TASK_POINTS, true, acc)?;
+        let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
+        let parallel = points >= parallel_min_points && tasks.len() > 1;
+        let one = |&t: &usize| self.sums_below(t, parallel);
+        let sums: Vec<BlockSums> = if parallel {
+            tasks.par_iter().map(one).collect::<Result<_, _>>()?
+        } else {
+            tasks.iter().map(one).collect::<Result<_, _>>()?
+        };
+        for s in &sums {
+            acc.nodes_tested += s.nodes_tested;
+            acc.nodes_culled += s.nodes_culled;
+            for part in &s.parts {
+                acc.merge(part);
+            }
+        }
+        Ok(())
+    }
+
+    /// The sums of the blocks below node `root`, tested and not culled, in block order: its
+    /// descendants of more than [`BLOCK_POINTS`] points tested on the way, the two halves of each
+    /// on the pool when `parallel` (`rayon::join` keeps their order).
+    fn sums_below(&self, root: usize, parallel: bool) -> Result<BlockSums, StorageError> {
+        let node = &self.nodes[root];
+        let children = node.children().filter(|_| node.point_count > BLOCK_POINTS);
+        let Some([a, b]) = children else {
+            let mut part = Contact::default();
+            self.walk(root, true, &mut part)?;
+            return Ok(BlockSums {
+                parts: vec![part],
+                ..BlockSums::default()
+            });
+        };
+        let half = |i: usize| -> Result<BlockSums, StorageError> {
+            let mut cur = self.voxmap.cursor();
+            let outside = self.is_outside(&mut cur, &self.nodes[i]);
+            cur.finish()?;
+            let mut sums = if outside? {
+                BlockSums {
+                    nodes_culled: 1,
+                    ..BlockSums::default()
+                }
+            } else {
+                self.sums_below(i, parallel)?
+            };
+            sums.nodes_tested += 1;
+            Ok(sums)
+        };
+        let (first, second) = if parallel {
+            rayon::join(|| half(a), || half(b))
+        } else {
+            (half(a), half(b))
+        };
+        let mut sums = first?;
+        sums.append(second?);
+        Ok(sums)
+    }
+
+    /// Sum `blocks` with `f`, in parallel when they hold `parallel_min_points` or more, adding
+    /// the block sums in block order (so the same bits either way).
+    pub(super) fn sum_blocks(
+        &self,
+        blocks: &[usize],
+        parallel_min_points: u64,
+        acc: &mut Contact,
+        f: impl Fn(usize, &mut Contact) -> Result<(), StorageError> + Sync,
+    ) -> Result<(), StorageError> {
+        let points: u64 = blocks.iter().map(|&b| self.nodes[b].point_count as u64).sum();
+        let one = |&b: &usize| {
+            let mut part = Contact::default();
+            f(b, &mut part).map(|_| part)
+        };
+        let parts: Vec<Contact> = if points >= parallel_min_points && blocks.len() > 1 {
+            blocks.par_iter().map(one).collect::<Result<_, _>>()?
+        } else {
+            blocks.iter().map(one).collect::<Result<_, _>>()?
+        };
+        for p in &parts {
+            acc.merge(p);
+        }
+        Ok(())
+    }
+
+    /// Stand-in for the untested points of `node` when the budget has run out: its points, as
+    /// if all sat at its centre with the cone axis as normal, plus a bound on the error (see
+    /// `docs/HAPTICS.md`).
+    fn approximate(&self, cur: &mut Cursor<'_>, node: &SphereNode, acc: &mut Contact) -> Result<(), StorageError> {
+        acc.nodes_approximated += 1;
+        acc.points_approximated += node.point_count as u64;
+        let (r, u) = self.place(node.center());
+        let looked_up = cur.in_grid(u);
+        cur.check()?;
+        let inside_grid = looked_up.is_some();
+        let (value, v) = looked_up.unwrap_or((self.outside, [0; 3]));
+        // Values change by at most 1 per voxel step, except one step of 2 from −1 to +1
+        // across a diagonal, and a point within r is at most floor(r/s) + 1 steps away.
+        // An interpolated distance reads one voxel further, a sharp one two.
+        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + self.reach_voxels();
+        let v_max = if inside_grid {
+            (value as i32 + steps + 1).min(self.layers + 1)
+        } else {
+            self.layers + 1
+        };
+        if v_max < 0 {
+            return Ok(());
+        }
+        let count = node.point_count as f64;
+        // Each point's penetration is at most s·v_max plus its distance to its voxel centre;
+        // an interpolated distance, at most the reach it is clamped to.
+        let d_max = if self.reads_distances() {
+            self.s * self.reach
+        } else {
+            self.s * (v_max as f64 + 0.75f64.sqrt())
+        };
+        let bound = 2.0 * self.k * count * d_max;
+        acc.force_error_bound += bound;
+        acc.torque_error_bound += bound * (r.length() + node.radius as f64);
+        let axis = node.cone_axis().as_dvec3();
+        if value >= 0 && axis.length_squared() > 0.0 {
+            let n = axis.normalize();
+            let d = if self.reads_distances() {
+                // Weighted like its points, which keeps the estimate within the bound: the
+                // weights are at most 1.
+                let d = if self.measure == Penetration::Sharp {
+                    cur.sharp_distance_at(u)
+                } else {
+                    cur.distance_at(u)
+                };
+                self.s * d * area_weight_f64(n.as_vec3())
+            } else {
+                self.penetration(value, v, u, self.rot * n)
+            };
+            if d > 0.0 {
+                // In the pointshell's frame and unscaled, like the points' sums (see
+                // `test_points`).
+                acc.force += n * (count * d);
+                acc.torque += node.center().as_dvec3().cross(n) * (count * d);
+                // An estimate too: the weight counted twice, so it errs low.
+                acc.energy += count * d * d;
+            }
+        }
+        Ok(())
+    }
+
+    /// Breadth-first refinement until `deadline`, on the calling thread.
+    ///
+    /// Each level is planned before it starts: refining a node costs about one node's time now
+    /// and, if the budget then runs out, the approximation of its two children later; leaving it
+    /// costs its own approximation. With `c` the measured time per node, `L` nodes in the level
+    /// and `R` time left, refining the first `P` nodes costs `(L + 2P)·c`, so
+    /// `P = (R/c − L) / 2`. The clock is still read every [`CLOCK_EVERY`] nodes in case the
+    /// estimate was low.
+    pub(super) fn walk_budgeted(&self, deadline: Instant, acc: &mut Contact) -> Result<(), StorageError> {
+        let mut level: Vec<usize> = if self.nodes.is_empty() { vec![] } else { vec![0] };
+        let mut next = Vec::new();
+        let mut cur = self.voxmap.cursor();
+        // Seconds per node, including a leaf's points: the mean over the levels refined so far,
+        // which spreads the fixed cost of a level (the clock, the first brick look-ups) over its
+        // nodes.
+        let mut cost = INITIAL_NODE_SECONDS;
+        let (mut spent, mut refined_nodes) = (0.0f64, 0usize);
+        while !level.is_empty() {
+            let started = Instant::now();
+            let left = deadline.saturating_duration_since(started).as_secs_f64();
+            let l = level.len() as f64;
+            let refine = if left >= 3.0 * l * cost {
+                level.len()
+            } else {
+                ((left / cost - l) / 2.0).max(0.0) as usize
+            };
+            let (todo, rest) = level.split_at(refine.min(level.len()));
+            for (at, &i) in todo.iter().enumerate() {
+                if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
+                    for &j in &todo[at..] {
+                        self.approximate(&mut cur, &self.nodes[j], acc)?;
+                    }
+                    break;
+                }
+                let node = &self.nodes[i];
+                acc.nodes_tested += 1;
+                if self.is_outside(&mut cur, node)? {
+                    acc.nodes_culled += 1;
+                    continue;
+                }
+                match node.children() {
+                    Some([a, b]) => next.extend([a, b]),
+                    None => self.test_points(&mut cur, node.points(), acc),
+                }
+            }
+            if !todo.is_empty() {
+                spent += started.elapsed().as_secs_f64();
+                refined_nodes += todo.len();
+                cost = (spent / refined_nodes as f64).max(MIN_NODE_SECONDS);
+            }
+            for &j in rest {
+                self.approximate(&mut cur, &self.nodes[j], acc)?;
+            }
+            std::mem::swap(&mut level, &mut next);
+            next.clear();
+        }
+        cur.finish()
+    }
+}
