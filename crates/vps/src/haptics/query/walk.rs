@@ -50,9 +50,14 @@ impl Frame<'_> {
     ///
     /// Nodes whose points follow one another are tested as one range, so the batches of
     /// `test_points` stay full (a leaf holds 8 to 16 points): the same points in the same
-    /// order, so the same sums.
-    pub(super) fn walk(&self, root: usize, root_tested: bool, acc: &mut Contact) -> Result<(), StorageError> {
-        let mut cur = self.voxmap.cursor();
+    /// order, so the same sums. Errors met by `cur` on the way are returned here.
+    pub(super) fn walk(
+        &self,
+        cur: &mut Cursor<'_>,
+        root: usize,
+        root_tested: bool,
+        acc: &mut Contact,
+    ) -> Result<(), StorageError> {
         let mut stack: Vec<(usize, bool)> = Vec::with_capacity(64);
         stack.push((root, root_tested));
         let mut pending = 0..0;
@@ -61,14 +66,14 @@ impl Frame<'_> {
             let mut inside = false;
             if !tested {
                 acc.nodes_tested += 1;
-                match self.classify(&mut cur, node)? {
+                match self.classify(cur, node)? {
                     Class::Outside => {
                         acc.nodes_culled += 1;
                         continue;
                     }
                     Class::Inside => inside = true,
                     Class::Deep => {
-                        self.test_points(&mut cur, std::mem::replace(&mut pending, 0..0), acc);
+                        self.test_points(cur, std::mem::replace(&mut pending, 0..0), acc);
                         self.test_points_deep(node.points(), acc);
                         continue;
                     }
@@ -85,13 +90,13 @@ impl Frame<'_> {
                     if points.start == pending.end {
                         pending.end = points.end;
                     } else {
-                        self.test_points(&mut cur, std::mem::replace(&mut pending, points), acc);
+                        self.test_points(cur, std::mem::replace(&mut pending, points), acc);
                     }
                 }
             }
         }
-        self.test_points(&mut cur, pending, acc);
-        cur.finish()
+        self.test_points(cur, pending, acc);
+        cur.check()
     }
 
     /// The highest nodes of at most `max_points` points, in point order (the blocks, with
@@ -131,60 +136,73 @@ impl Frame<'_> {
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
         let tasks = self.roots(TASK_POINTS, true, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
-        let parallel = points >= parallel_min_points && tasks.len() > 1;
-        let one = |&t: &usize| self.sums_below(t, parallel);
-        let sums: Vec<BlockSums> = if parallel {
-            tasks.par_iter().map(one).collect::<Result<_, _>>()?
+        let mut sums = BlockSums::default();
+        if points >= parallel_min_points && tasks.len() > 1 {
+            let task = |cur: &mut Cursor<'_>, &t: &usize| {
+                let mut task_sums = BlockSums::default();
+                self.sums_below(cur, t, true, &mut task_sums).map(|()| task_sums)
+            };
+            let done: Vec<BlockSums> = tasks
+                .par_iter()
+                .map_init(|| self.voxmap.cursor(), task)
+                .collect::<Result<_, _>>()?;
+            done.into_iter().for_each(|t| sums.append(t));
         } else {
-            tasks.iter().map(one).collect::<Result<_, _>>()?
-        };
-        for s in &sums {
-            acc.nodes_tested += s.nodes_tested;
-            acc.nodes_culled += s.nodes_culled;
-            for part in &s.parts {
-                acc.merge(part);
+            // On this thread, one cursor and one list of sums for the whole walk.
+            let mut cur = self.voxmap.cursor();
+            for &t in &tasks {
+                self.sums_below(&mut cur, t, false, &mut sums)?;
             }
+        }
+        acc.nodes_tested += sums.nodes_tested;
+        acc.nodes_culled += sums.nodes_culled;
+        for part in &sums.parts {
+            acc.merge(part);
         }
         Ok(())
     }
 
-    /// The sums of the blocks below node `root`, tested and not culled, in block order: its
-    /// descendants of more than [`BLOCK_POINTS`] points tested on the way, the two halves of each
-    /// on the pool when `parallel` (`rayon::join` keeps their order).
-    fn sums_below(&self, root: usize, parallel: bool) -> Result<BlockSums, StorageError> {
+    /// Add to `sums` those of the blocks below node `root`, tested and not culled, in block
+    /// order: its descendants of more than [`BLOCK_POINTS`] points tested on the way, the two
+    /// halves of each on the pool when `parallel` (the second half with a cursor and sums of its
+    /// own, appended after the first's).
+    fn sums_below(
+        &self,
+        cur: &mut Cursor<'_>,
+        root: usize,
+        parallel: bool,
+        sums: &mut BlockSums,
+    ) -> Result<(), StorageError> {
         let node = &self.nodes[root];
         let children = node.children().filter(|_| node.point_count > BLOCK_POINTS);
         let Some([a, b]) = children else {
             let mut part = Contact::default();
-            self.walk(root, true, &mut part)?;
-            return Ok(BlockSums {
-                parts: vec![part],
-                ..BlockSums::default()
-            });
+            self.walk(cur, root, true, &mut part)?;
+            sums.parts.push(part);
+            return Ok(());
         };
-        let half = |i: usize| -> Result<BlockSums, StorageError> {
-            let mut cur = self.voxmap.cursor();
-            let outside = self.is_outside(&mut cur, &self.nodes[i]);
-            cur.finish()?;
-            let mut sums = if outside? {
-                BlockSums {
-                    nodes_culled: 1,
-                    ..BlockSums::default()
-                }
-            } else {
-                self.sums_below(i, parallel)?
-            };
+        let half = |cur: &mut Cursor<'_>, i: usize, sums: &mut BlockSums| -> Result<(), StorageError> {
             sums.nodes_tested += 1;
-            Ok(sums)
+            if self.is_outside(cur, &self.nodes[i])? {
+                sums.nodes_culled += 1;
+                return Ok(());
+            }
+            self.sums_below(cur, i, parallel, sums)
         };
-        let (first, second) = if parallel {
-            rayon::join(|| half(a), || half(b))
+        if parallel {
+            let mut second = BlockSums::default();
+            let (a, b) = rayon::join(
+                || half(cur, a, sums),
+                || half(&mut self.voxmap.cursor(), b, &mut second),
+            );
+            a?;
+            b?;
+            sums.append(second);
         } else {
-            (half(a), half(b))
-        };
-        let mut sums = first?;
-        sums.append(second?);
-        Ok(sums)
+            half(cur, a, sums)?;
+            half(cur, b, sums)?;
+        }
+        Ok(())
     }
 
     /// Sum `blocks` with `f`, in parallel when they hold `parallel_min_points` or more, adding
