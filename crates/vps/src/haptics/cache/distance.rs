@@ -47,6 +47,37 @@ impl Cursor<'_> {
         }
     }
 
+    /// The signed distance at grid-unit point `u` (in the grid), in voxels, from its own
+    /// brick alone, where [`Cursor::distance_at`] may gather an apron of eight bricks: the
+    /// trilinear blend of the brick's eight voxel centres nearest `u`, extrapolated linearly
+    /// when `u` lies beyond its outer centres (at most half a voxel along an axis), and clamped
+    /// to the reach. The same as `distance_at` where the blend's cell lies in the brick. Only
+    /// for a voxmap with distances.
+    pub(crate) fn distance_in_brick(&mut self, u: DVec3) -> f64 {
+        const LAST: usize = BRICK as usize - 1;
+        let (far_out, far_in) = (self.far_out, self.far_in);
+        // In the grid, so truncation is the floor.
+        let (b, _) = split_voxel([u.x as u32, u.y as u32, u.z as u32]);
+        let origin = b.map(|x| f64::from(x << BRICK_SHIFT));
+        let ds = match self.brick_source(b) {
+            BrickSource::Uniform(d) => return d as f64 * DISTANCE_STEP,
+            BrickSource::Stored(ds) => ds,
+        };
+        let (mut lower, mut t) = ([0usize; 3], [0.0f64; 3]);
+        for a in 0..3 {
+            // From −0.5 to 7.5: the brick's voxel centres lie at 0 … 7.
+            let c = u[a] - 0.5 - origin[a];
+            lower[a] = (c.max(0.0) as usize).min(LAST - 1);
+            t[a] = c - lower[a] as f64;
+        }
+        let at = (lower[2] * BRICK as usize + lower[1]) * BRICK as usize + lower[0];
+        let corners = std::array::from_fn(|j| {
+            let up = neighbour(j);
+            ds[at + up[0] + (up[1] + up[2] * BRICK as usize) * BRICK as usize] as f64
+        });
+        blend(corners, t).clamp(far_out as f64, far_in as f64) * DISTANCE_STEP
+    }
+
     /// The distances of brick `b`, which must lie in the grid.
     #[inline(always)]
     pub(super) fn brick_source(&mut self, b: [u32; 3]) -> BrickSource<'_> {
@@ -408,6 +439,74 @@ pub(super) fn cell_anywhere(u: DVec3) -> ([i64; 3], DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::haptics::CachedVoxmap;
+    use crate::shapes::{sphere, SplitMix};
+    use crate::{voxelize, Mesh, VoxelizeParams};
+
+    /// `distance_in_brick` is `distance_at` where the blend's cell lies in the point's brick,
+    /// elsewhere the blend of that brick's eight centres nearest the point, extrapolated (read
+    /// voxel by voxel here), and always within the reach: at random points in a ball's grid.
+    #[test]
+    fn the_distance_in_a_brick_is_the_blend_or_its_extrapolation() {
+        let mesh = Mesh::from_triangles("ball", sphere(DVec3::ZERO, 0.75, 24, 48)).unwrap();
+        let params = VoxelizeParams {
+            distances: true,
+            ..VoxelizeParams::new(0.1, 3)
+        };
+        let voxmap = CachedVoxmap::in_memory(voxelize(&mesh, &params).unwrap().0);
+        let mut cur = voxmap.cursor();
+        let dims = voxmap.grid().dims.map(|d| d as f64);
+        let (lo, hi) = (cur.far_out as f64, cur.far_in as f64);
+        let mut rng = SplitMix(11);
+        let (mut inside, mut extrapolated) = (0, 0);
+        for _ in 0..20_000 {
+            let u = DVec3::new(
+                rng.range(0.0, dims[0]),
+                rng.range(0.0, dims[1]),
+                rng.range(0.0, dims[2]),
+            );
+            let got = cur.distance_in_brick(u);
+            assert!((lo..=hi).contains(&(got / DISTANCE_STEP)), "at {u}: {got}");
+            let voxel = [u.x, u.y, u.z].map(|x| x.floor() as i64);
+            let (corner, _) = cell(u);
+            if (0..3).all(|a| corner[a] >= 0 && corner[a] >> BRICK_SHIFT == voxel[a] >> BRICK_SHIFT)
+                && !crosses_brick(corner.map(|c| c as i32))
+            {
+                inside += 1;
+                let want = cur.distance_at(u);
+                assert!((got - want).abs() <= 1e-12, "at {u}: {got} vs {want}");
+                continue;
+            }
+            extrapolated += 1;
+            // The brick's centres nearest u, and u's place from the lower one, beyond [0, 1]
+            // where u lies past the brick's outer centres.
+            let mut base = [0i64; 3];
+            let mut t = [0.0; 3];
+            for a in 0..3 {
+                let first = voxel[a] & !((1 << BRICK_SHIFT) - 1);
+                base[a] = (u[a] - 0.5).floor().clamp(first as f64, (first + 6) as f64) as i64;
+                t[a] = u[a] - 0.5 - base[a] as f64;
+            }
+            let mut d = [[[0.0; 2]; 2]; 2];
+            for (k, plane) in d.iter_mut().enumerate() {
+                for (j, row) in plane.iter_mut().enumerate() {
+                    for (i, x) in row.iter_mut().enumerate() {
+                        let v = [base[0] + i as i64, base[1] + j as i64, base[2] + k as i64];
+                        *x = cur.voxel_distance(v) as f64;
+                    }
+                }
+            }
+            let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+            let face = |p: [[f64; 2]; 2]| lerp(lerp(p[0][0], p[0][1], t[0]), lerp(p[1][0], p[1][1], t[0]), t[1]);
+            let want = lerp(face(d[0]), face(d[1]), t[2]).clamp(lo, hi) * DISTANCE_STEP;
+            assert!((got - want).abs() <= 1e-12, "at {u}: {got} vs {want}");
+        }
+        assert!(
+            inside > 5_000 && extrapolated > 5_000,
+            "{inside} inside, {extrapolated} not"
+        );
+        cur.finish().unwrap();
+    }
 
     /// `cell`, the fast one, finds the cell `cell_anywhere` (a floor) finds, to the bit, on
     /// the awkward coordinates: voxel faces and centres, and the doubles just beside them.
