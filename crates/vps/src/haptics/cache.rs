@@ -562,3 +562,16 @@ impl<'a> Cursor<'a> {
         self.check()
     }
 }
+
+/// A ball of radius 0.75 voxelized with distances (voxels of 0.1, 3 layers), in memory: the
+/// voxmap the look-up tests read at random points.
+#[cfg(test)]
+fn test_ball() -> CachedVoxmap {
+    use crate::{voxelize, Mesh, VoxelizeParams};
+    let mesh = Mesh::from_triangles("ball", crate::shapes::sphere(DVec3::ZERO, 0.75, 24, 48)).unwrap();
+    let params = VoxelizeParams {
+        distances: true,
+        ..VoxelizeParams::new(0.1, 3)
+    };
+    CachedVoxmap::in_memory(voxelize(&mesh, &params).unwrap().0)
+}

@@ -439,21 +439,14 @@ pub(super) fn cell_anywhere(u: DVec3) -> ([i64; 3], DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::haptics::CachedVoxmap;
-    use crate::shapes::{sphere, SplitMix};
-    use crate::{voxelize, Mesh, VoxelizeParams};
+    use crate::shapes::SplitMix;
 
     /// `distance_in_brick` is `distance_at` where the blend's cell lies in the point's brick,
     /// elsewhere the blend of that brick's eight centres nearest the point, extrapolated (read
     /// voxel by voxel here), and always within the reach: at random points in a ball's grid.
     #[test]
     fn the_distance_in_a_brick_is_the_blend_or_its_extrapolation() {
-        let mesh = Mesh::from_triangles("ball", sphere(DVec3::ZERO, 0.75, 24, 48)).unwrap();
-        let params = VoxelizeParams {
-            distances: true,
-            ..VoxelizeParams::new(0.1, 3)
-        };
-        let voxmap = CachedVoxmap::in_memory(voxelize(&mesh, &params).unwrap().0);
+        let voxmap = super::super::test_ball();
         let mut cur = voxmap.cursor();
         let dims = voxmap.grid().dims.map(|d| d as f64);
         let (lo, hi) = (cur.far_out as f64, cur.far_in as f64);

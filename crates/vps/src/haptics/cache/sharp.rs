@@ -136,22 +136,15 @@ mod tests {
     use glam::DVec3;
 
     use super::{cell_anywhere, keep_ridge, NEIGHBOUR_STEPS};
-    use crate::haptics::CachedVoxmap;
-    use crate::shapes::{sphere, SplitMix};
+    use crate::shapes::SplitMix;
     use crate::voxmap::DISTANCE_STEP;
-    use crate::{voxelize, Mesh, VoxelizeParams};
 
     /// `sharp_distance_at`, which reads the 64 voxels of a cell inside one brick from the brick
     /// at once, gives the bits of blending them read one by one, at random points in and
     /// around a ball's grid (whose bricks are stored, tiles, and partly beyond the grid).
     #[test]
     fn the_sharp_blend_reads_a_brick_as_it_reads_voxels() {
-        let mesh = Mesh::from_triangles("ball", sphere(DVec3::ZERO, 0.75, 24, 48)).unwrap();
-        let params = VoxelizeParams {
-            distances: true,
-            ..VoxelizeParams::new(0.1, 3)
-        };
-        let voxmap = CachedVoxmap::in_memory(voxelize(&mesh, &params).unwrap().0);
+        let voxmap = super::super::test_ball();
         let mut cur = voxmap.cursor();
         let dims = voxmap.grid().dims.map(|d| d as f64);
         let (lo, hi) = (cur.far_out as f64, cur.far_in as f64);
