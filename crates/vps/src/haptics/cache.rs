@@ -374,6 +374,9 @@ pub struct Cursor<'a> {
     switches: u64,
     shared: u64,
     error: Option<StorageError>,
+    /// Whether a brick failed to read: the table may then hold aprons gathered with its
+    /// stand-in, so it is dropped with the cursor rather than kept for the next one.
+    failed: bool,
     occupancy: Option<&'a Occupancy>,
 }
 
@@ -383,7 +386,7 @@ impl Drop for Cursor<'_> {
         self.voxmap
             .cursor_hits
             .fetch_add(self.switches - self.shared, Ordering::Relaxed);
-        if let Some(table) = self.table.take() {
+        if let Some(table) = self.table.take().filter(|_| !self.failed) {
             let mut idle = self.voxmap.tables.lock().unwrap_or_else(|e| e.into_inner());
             if idle.len() < MAX_IDLE_TABLES {
                 idle.push(table);
@@ -429,6 +432,7 @@ impl<'a> Cursor<'a> {
             switches: 0,
             shared: 0,
             error: None,
+            failed: false,
             occupancy: voxmap.occupancy.as_ref(),
         }
     }
@@ -502,6 +506,7 @@ impl<'a> Cursor<'a> {
                     table.slots[at] = Slot::Tile(self.outside);
                     table.keys[at] = u64::MAX;
                     self.error.get_or_insert(e);
+                    self.failed = true;
                 }
             }
         }

@@ -474,8 +474,9 @@ pub fn contact<S: PointshellData + ?Sized>(
     contact_threaded(voxmap, shell, pose, params, PARALLEL_MIN_POINTS)
 }
 
-/// [`contact`], on the thread pool only when the blocks not culled hold `parallel_min_points`
-/// or more (the haptic loop decides by the points its last query tested).
+/// [`contact`], on the thread pool only when more than one task (the first nodes of at most
+/// 8,192 points) is left after culling and they hold `parallel_min_points` or more (the haptic
+/// loop decides by the points its last query tested).
 pub(crate) fn contact_threaded<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
     shell: &S,
@@ -534,7 +535,7 @@ pub fn contact_brute_force<S: PointshellData + ?Sized>(
     let start = Instant::now();
     let frame = Frame::new(voxmap, shell, pose, params)?;
     let mut acc = Contact::default();
-    let blocks = frame.roots(BLOCK_POINTS, false, &mut acc)?;
+    let blocks = frame.cut_at(BLOCK_POINTS, false, &mut acc)?;
     frame.sum_blocks(&blocks, PARALLEL_MIN_POINTS, &mut acc, |b, part| {
         let mut cur = voxmap.cursor();
         frame.test_points(&mut cur, frame.nodes[b].points(), part);

@@ -441,6 +441,52 @@ mod tests {
     use super::*;
     use crate::shapes::SplitMix;
 
+    /// A brick that fails to read is reported by every cursor that needs it: the apron a
+    /// failed cursor gathered with the brick's stand-in (far outside) is not handed on with
+    /// its table to the next cursor, which would read it without an error.
+    #[test]
+    fn a_failed_read_leaves_no_apron_behind() {
+        use crate::haptics::cache::{CachedVoxmap, VoxmapSource};
+        let ball = super::super::test_ball();
+        let VoxmapSource::Memory(map) = ball.source() else {
+            unreachable!("built in memory")
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ball.vxm");
+        crate::write_voxmap(&path, map).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        let grid = *ball.grid();
+        let n = grid.brick_dims().map(u64::from);
+        // Two stored bricks side by side along x; the second is corrupted.
+        let file = crate::VoxmapFile::from_bytes(&bytes).unwrap();
+        let index = file.index().unwrap();
+        let keys: std::collections::HashSet<u64> = index.iter().map(|e| e.key).collect();
+        let first = index
+            .iter()
+            .find(|e| keys.contains(&(e.key + n[1] * n[2])))
+            .unwrap()
+            .key;
+        let second = index.iter().find(|e| e.key == first + n[1] * n[2]).unwrap();
+        let offset = second.offset as usize;
+        drop(file);
+        bytes[offset] ^= 0xFF;
+        std::fs::write(&path, &bytes).unwrap();
+        let voxmap = CachedVoxmap::open(&path).unwrap();
+        // A point in the first brick's last voxel along x, past its centre: its cell reaches
+        // into the second brick, so its corners come from the first brick's apron.
+        let b = grid.brick_coords(first);
+        let origin = DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64) * BRICK as f64;
+        let u = origin + DVec3::new(BRICK as f64 - 0.25, 3.5, 3.5);
+        for attempt in 0..3 {
+            let mut cur = voxmap.cursor();
+            cur.distance_at(u);
+            assert!(
+                cur.finish().is_err(),
+                "attempt {attempt} read the corrupt brick without an error"
+            );
+        }
+    }
+
     /// `distance_in_brick` is `distance_at` where the blend's cell lies in the point's brick,
     /// elsewhere the blend of that brick's eight centres nearest the point, extrapolated (read
     /// voxel by voxel here), and always within the reach: at random points in a ball's grid.
@@ -467,7 +513,7 @@ mod tests {
             {
                 inside += 1;
                 let want = cur.distance_at(u);
-                assert!((got - want).abs() <= 1e-12, "at {u}: {got} vs {want}");
+                assert_eq!(got.to_bits(), want.to_bits(), "at {u}: {got} vs {want}");
                 continue;
             }
             extrapolated += 1;

@@ -187,6 +187,71 @@ fn a_query_on_the_calling_thread_gives_the_pools_bits() {
     assert!(in_contact >= 5, "only {in_contact} poses in contact");
 }
 
+/// A brick that fails its checksum fails the query also when only the pool reads it: every
+/// stored brick of the file is corrupted but those holding the centres of the nodes down to the
+/// tasks (the calling thread tests them), or down to the blocks, so the first bad read is a
+/// node test below the tasks or a block's walk, on the pool (and, as the reference, on the
+/// calling thread).
+#[test]
+fn a_corrupt_brick_read_on_the_pool_fails_the_query() {
+    use super::walk::TASK_POINTS;
+    use super::BLOCK_POINTS;
+    use crate::haptics::cache::VoxmapSource;
+    use crate::haptics::HapticsError;
+    use crate::storage::StorageError;
+    let good = voxmap(LAYERS);
+    let VoxmapSource::Memory(map) = good.source() else {
+        unreachable!("built in memory")
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("corrupt.vxm");
+    crate::write_voxmap(&path, map).unwrap();
+    let intact = std::fs::read(&path).unwrap();
+    let shell = ball_shell(0.6, 24, 0.02);
+    let pose = Pose::new([0.9, 0.0, 0.1], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let params = ContactParams::default();
+    let frame = Frame::new(&good, &shell, &pose, &params).unwrap();
+    let mut counts = super::Contact::default();
+    let tasks = frame.cut_at(TASK_POINTS, true, &mut counts).unwrap();
+    assert!(tasks.len() > 1, "{} tasks left", tasks.len());
+    assert!(super::contact(&good, &shell, &pose, &params).unwrap().points_in_contact > 0);
+    let grid = *good.grid();
+    for kept_above in [TASK_POINTS, BLOCK_POINTS] {
+        // The bricks of the centres of the nodes down to the first of at most `kept_above`
+        // points.
+        let mut keep = std::collections::HashSet::new();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = &frame.nodes[i];
+            let (_, u) = frame.place(node.center());
+            if let Some(v) = grid.voxel_of(grid.origin + u * grid.voxel_size) {
+                keep.insert(grid.brick_key(crate::grid::split_voxel(v).0));
+            }
+            if let Some([a, b]) = node.children().filter(|_| node.point_count > kept_above) {
+                stack.extend([b, a]);
+            }
+        }
+        let mut bytes = intact.clone();
+        let file = crate::VoxmapFile::from_bytes(&intact).unwrap();
+        let mut corrupted = 0;
+        for e in file.index().unwrap() {
+            if !keep.contains(&e.key) {
+                bytes[e.offset as usize] ^= 0xFF;
+                corrupted += 1;
+            }
+        }
+        assert!(corrupted > 0 && !keep.is_empty());
+        std::fs::write(&path, &bytes).unwrap();
+        let bad = CachedVoxmap::open(&path).unwrap();
+        for parallel_min_points in [0, u64::MAX] {
+            match super::contact_threaded(&bad, &shell, &pose, &params, parallel_min_points) {
+                Err(HapticsError::Storage(StorageError::BrickChecksum { .. })) => {}
+                other => panic!("kept above {kept_above}, parallel from {parallel_min_points}: {other:?}"),
+            }
+        }
+    }
+}
+
 /// No contact reads the distance of a voxel beyond the first outer layer
 /// ([`crate::voxmap::distance_is_read`]), which files do not store: with any negative numbers
 /// there instead of their bounds, every query gives the same bits, through the tree, by brute

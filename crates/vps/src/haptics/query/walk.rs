@@ -11,11 +11,12 @@ use crate::pointshell::shell::area_weight_f64;
 use crate::pointshell::tree::SphereNode;
 use crate::storage::StorageError;
 
-/// The exact walk tests the nodes of more points than this on the calling thread, which decides
-/// from the points left below them whether to wake the pool; below, it tests nodes on the pool
-/// too. Testing every node above the blocks there, on one thread, kept the other idle for a
-/// quarter of the first query after opening (its node tests decode bricks).
-const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
+/// The exact walk tests the nodes down to the first of at most this many points (the tasks) on
+/// the calling thread, which decides from the points left in the tasks whether to wake the
+/// pool; the nodes below the tasks are tested there too. Testing every node above the blocks
+/// on one thread kept the other idle for a quarter of the first query after opening (its node
+/// tests decode bricks).
+pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
 
 /// The time-critical walk checks the clock every this many nodes.
 const CLOCK_EVERY: usize = 16;
@@ -99,10 +100,11 @@ impl Frame<'_> {
         cur.check()
     }
 
-    /// The highest nodes of at most `max_points` points, in point order (the blocks, with
-    /// [`BLOCK_POINTS`]). With `cull`, those under a culled node are dropped, and those returned
-    /// have been tested.
-    pub(super) fn roots(&self, max_points: u32, cull: bool, acc: &mut Contact) -> Result<Vec<usize>, StorageError> {
+    /// The cut of the tree at `max_points`: its highest nodes of at most `max_points` points, in
+    /// point order (the blocks, with [`BLOCK_POINTS`]; the tasks, with [`TASK_POINTS`]). With
+    /// `cull`, every node down to them is tested, those under a culled node are dropped, and
+    /// those returned have been tested.
+    pub(super) fn cut_at(&self, max_points: u32, cull: bool, acc: &mut Contact) -> Result<Vec<usize>, StorageError> {
         let mut out = Vec::new();
         if self.nodes.is_empty() {
             return Ok(out);
@@ -130,28 +132,26 @@ impl Frame<'_> {
         Ok(out)
     }
 
-    /// The exact walk: the nodes above the tasks ([`TASK_POINTS`]) tested here, then each task
-    /// down to its blocks and the blocks walked, on the pool when the tasks hold
-    /// `parallel_min_points` or more. The block sums are added in block order.
+    /// The exact walk: the nodes down to the tasks (the first of at most [`TASK_POINTS`]
+    /// points) tested here; when more than one task is left and they hold
+    /// `parallel_min_points` or more, the nodes below them tested and their blocks walked on
+    /// the pool, else here. The block sums are added in block order.
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
-        let tasks = self.roots(TASK_POINTS, true, acc)?;
+        let tasks = self.cut_at(TASK_POINTS, true, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
         let mut sums = BlockSums::default();
         if points >= parallel_min_points && tasks.len() > 1 {
-            let task = |cur: &mut Cursor<'_>, &t: &usize| {
+            let task = |&t: &usize| {
                 let mut task_sums = BlockSums::default();
-                self.sums_below(cur, t, true, &mut task_sums).map(|()| task_sums)
+                self.sums_below(t, None, &mut task_sums).map(|()| task_sums)
             };
-            let done: Vec<BlockSums> = tasks
-                .par_iter()
-                .map_init(|| self.voxmap.cursor(), task)
-                .collect::<Result<_, _>>()?;
+            let done: Vec<BlockSums> = tasks.par_iter().map(task).collect::<Result<_, _>>()?;
             done.into_iter().for_each(|t| sums.append(t));
         } else {
-            // On this thread, one cursor and one list of sums for the whole walk.
+            // On this thread, one cursor and one list of sums for all the tasks.
             let mut cur = self.voxmap.cursor();
             for &t in &tasks {
-                self.sums_below(&mut cur, t, false, &mut sums)?;
+                self.sums_below(t, Some(&mut cur), &mut sums)?;
             }
         }
         acc.nodes_tested += sums.nodes_tested;
@@ -163,44 +163,51 @@ impl Frame<'_> {
     }
 
     /// Add to `sums` those of the blocks below node `root`, tested and not culled, in block
-    /// order: its descendants of more than [`BLOCK_POINTS`] points tested on the way, the two
-    /// halves of each on the pool when `parallel` (the second half with a cursor and sums of its
-    /// own, appended after the first's).
-    fn sums_below(
-        &self,
-        cur: &mut Cursor<'_>,
-        root: usize,
-        parallel: bool,
-        sums: &mut BlockSums,
-    ) -> Result<(), StorageError> {
+    /// order: its descendants of more than [`BLOCK_POINTS`] points tested on the way. With
+    /// `cur`, all of it on this thread through that cursor; without, the two halves of each
+    /// node as a `rayon::join` (the second with sums of its own, appended after the first's),
+    /// each node test and block walk with a cursor of its own, given back at once: cursors
+    /// kept down each thread's path held more tables at a time, and the first query after
+    /// opening gathered the same aprons into each (`docs/PERFORMANCE.md`).
+    fn sums_below(&self, root: usize, cur: Option<&mut Cursor<'_>>, sums: &mut BlockSums) -> Result<(), StorageError> {
         let node = &self.nodes[root];
         let children = node.children().filter(|_| node.point_count > BLOCK_POINTS);
         let Some([a, b]) = children else {
             let mut part = Contact::default();
-            self.walk(cur, root, true, &mut part)?;
+            match cur {
+                Some(cur) => self.walk(cur, root, true, &mut part)?,
+                None => {
+                    let mut own = self.voxmap.cursor();
+                    self.walk(&mut own, root, true, &mut part)?;
+                }
+            }
             sums.parts.push(part);
             return Ok(());
         };
-        let half = |cur: &mut Cursor<'_>, i: usize, sums: &mut BlockSums| -> Result<(), StorageError> {
+        let half = |i: usize, mut cur: Option<&mut Cursor<'_>>, sums: &mut BlockSums| -> Result<(), StorageError> {
             sums.nodes_tested += 1;
-            if self.is_outside(cur, &self.nodes[i])? {
+            let outside = match cur.as_deref_mut() {
+                Some(cur) => self.is_outside(cur, &self.nodes[i])?,
+                None => self.is_outside(&mut self.voxmap.cursor(), &self.nodes[i])?,
+            };
+            if outside {
                 sums.nodes_culled += 1;
                 return Ok(());
             }
-            self.sums_below(cur, i, parallel, sums)
+            self.sums_below(i, cur, sums)
         };
-        if parallel {
-            let mut second = BlockSums::default();
-            let (a, b) = rayon::join(
-                || half(cur, a, sums),
-                || half(&mut self.voxmap.cursor(), b, &mut second),
-            );
-            a?;
-            b?;
-            sums.append(second);
-        } else {
-            half(cur, a, sums)?;
-            half(cur, b, sums)?;
+        match cur {
+            Some(cur) => {
+                half(a, Some(&mut *cur), sums)?;
+                half(b, Some(cur), sums)?;
+            }
+            None => {
+                let mut second = BlockSums::default();
+                let (first_done, second_done) = rayon::join(|| half(a, None, sums), || half(b, None, &mut second));
+                first_done?;
+                second_done?;
+                sums.append(second);
+            }
         }
         Ok(())
     }
