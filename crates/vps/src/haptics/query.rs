@@ -10,6 +10,7 @@
 use std::time::{Duration, Instant};
 
 use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::cache::{CachedVoxmap, Cursor};
 use super::HapticsError;
@@ -536,11 +537,20 @@ pub fn contact_brute_force<S: PointshellData + ?Sized>(
     let frame = Frame::new(voxmap, shell, pose, params)?;
     let mut acc = Contact::default();
     let blocks = frame.cut_at(BLOCK_POINTS, false, &mut acc)?;
-    frame.sum_blocks(&blocks, PARALLEL_MIN_POINTS, &mut acc, |b, part| {
-        let mut cur = voxmap.cursor();
-        frame.test_points(&mut cur, frame.nodes[b].points(), part);
-        cur.finish()
-    })?;
+    // As the exact walk: each block summed on one thread, the sums added in block order.
+    let block = |&b: &usize| {
+        let (mut part, mut cur) = (Contact::default(), voxmap.cursor());
+        frame.test_points(&mut cur, frame.nodes[b].points(), &mut part);
+        cur.finish().map(|()| part)
+    };
+    let parts: Vec<Contact> = if frame.points.len() as u64 >= PARALLEL_MIN_POINTS && blocks.len() > 1 {
+        blocks.par_iter().map(block).collect::<Result<_, _>>()?
+    } else {
+        blocks.iter().map(block).collect::<Result<_, _>>()?
+    };
+    for part in &parts {
+        acc.merge(part);
+    }
     frame.finish(&mut acc);
     acc.complete = true;
     acc.micros = start.elapsed().as_secs_f64() * 1e6;

@@ -109,13 +109,13 @@ impl Frame<'_> {
         if self.nodes.is_empty() {
             return Ok(out);
         }
-        let mut cur = self.voxmap.cursor();
+        let mut cur = cull.then(|| self.voxmap.cursor());
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = &self.nodes[i];
-            if cull {
+            if let Some(cur) = cur.as_mut() {
                 acc.nodes_tested += 1;
-                if self.is_outside(&mut cur, node)? {
+                if self.is_outside(cur, node)? {
                     acc.nodes_culled += 1;
                     continue;
                 }
@@ -128,7 +128,7 @@ impl Frame<'_> {
                 _ => out.push(i),
             }
         }
-        cur.finish()?;
+        cur.map_or(Ok(()), |cur| cur.finish())?;
         Ok(out)
     }
 
@@ -208,31 +208,6 @@ impl Frame<'_> {
                 second_done?;
                 sums.append(second);
             }
-        }
-        Ok(())
-    }
-
-    /// Sum `blocks` with `f`, in parallel when they hold `parallel_min_points` or more, adding
-    /// the block sums in block order (so the same bits either way).
-    pub(super) fn sum_blocks(
-        &self,
-        blocks: &[usize],
-        parallel_min_points: u64,
-        acc: &mut Contact,
-        f: impl Fn(usize, &mut Contact) -> Result<(), StorageError> + Sync,
-    ) -> Result<(), StorageError> {
-        let points: u64 = blocks.iter().map(|&b| self.nodes[b].point_count as u64).sum();
-        let one = |&b: &usize| {
-            let mut part = Contact::default();
-            f(b, &mut part).map(|_| part)
-        };
-        let parts: Vec<Contact> = if points >= parallel_min_points && blocks.len() > 1 {
-            blocks.par_iter().map(one).collect::<Result<_, _>>()?
-        } else {
-            blocks.iter().map(one).collect::<Result<_, _>>()?
-        };
-        for p in &parts {
-            acc.merge(p);
         }
         Ok(())
     }
