@@ -174,23 +174,13 @@ impl Frame<'_> {
         let children = node.children().filter(|_| node.point_count > BLOCK_POINTS);
         let Some([a, b]) = children else {
             let mut part = Contact::default();
-            match cur {
-                Some(cur) => self.walk(cur, root, true, &mut part)?,
-                None => {
-                    let mut own = self.voxmap.cursor();
-                    self.walk(&mut own, root, true, &mut part)?;
-                }
-            }
+            self.with_cursor(cur, |cur| self.walk(cur, root, true, &mut part))?;
             sums.parts.push(part);
             return Ok(());
         };
         let half = |i: usize, mut cur: Option<&mut Cursor<'_>>, sums: &mut BlockSums| -> Result<(), StorageError> {
             sums.nodes_tested += 1;
-            let outside = match cur.as_deref_mut() {
-                Some(cur) => self.is_outside(cur, &self.nodes[i])?,
-                None => self.is_outside(&mut self.voxmap.cursor(), &self.nodes[i])?,
-            };
-            if outside {
+            if self.with_cursor(cur.as_deref_mut(), |c| self.is_outside(c, &self.nodes[i]))? {
                 sums.nodes_culled += 1;
                 return Ok(());
             }
@@ -210,6 +200,14 @@ impl Frame<'_> {
             }
         }
         Ok(())
+    }
+
+    /// `f` through `cur`, or through a cursor of its own, given back when `f` returns.
+    fn with_cursor<R>(&self, cur: Option<&mut Cursor<'_>>, f: impl FnOnce(&mut Cursor<'_>) -> R) -> R {
+        match cur {
+            Some(cur) => f(cur),
+            None => f(&mut self.voxmap.cursor()),
+        }
     }
 
     /// Stand-in for the untested points of `node` when the budget has run out: its points, as
