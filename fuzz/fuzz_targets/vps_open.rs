@@ -1,7 +1,7 @@
 //! Arbitrary bytes as a `.vps` pointshell file: opening must return an error or a file whose
-//! tree, points, normals and weights can all be walked by plain indexing, whose header values
-//! are within the format's limits, whose weights lie in [0, 1], and which `verify` checks
-//! without a panic.
+//! tree, points, normals, weights and node loads can all be walked by plain indexing, whose
+//! header values are within the format's limits, whose weights lie in [0, 1], and which
+//! `verify` checks without a panic.
 //!
 //! The first input byte is a mode: if its low bit is set, the section CRCs and the header CRC
 //! are recomputed before opening, so the fuzzer reaches the layout and tree checks behind
@@ -38,6 +38,8 @@ fn walk(file: &PointshellFile) {
     }
     let (points, normals, weights, nodes) = (file.points(), file.normals(), file.weights(), file.nodes());
     assert_eq!(points.len() as u64, h.points);
+    // Opening sums a load for every node (over ranges the tree checks keep in bounds).
+    assert_eq!(vps::pointshell::PointshellData::node_loads(file).len(), nodes.len());
     assert_eq!(normals.len(), points.len());
     assert_eq!(weights.len(), points.len());
     assert_eq!(nodes.len() as u64, h.nodes);

@@ -227,6 +227,8 @@ fn each_point_is_weighted_by_the_area_it_stands_for() {
         normals: reorder(&normals, &order),
         weights: reorder(&weights, &order),
         tree,
+        // An exact query reads no loads.
+        loads: Vec::new(),
         stats: Default::default(),
     };
     let params = ContactParams {

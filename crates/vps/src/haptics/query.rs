@@ -170,6 +170,8 @@ pub(super) struct Frame<'a> {
     pub(super) points: &'a [Vec3],
     pub(super) normals: &'a [Vec3],
     pub(super) weights: &'a [f32],
+    /// One per node, or none (see [`PointshellData::node_loads`]).
+    pub(super) loads: &'a [crate::pointshell::NodeLoad],
     rot: DMat3,
     /// `R · origin` of the pointshell: lever arms are `R · p + lever0`.
     lever0: DVec3,
@@ -220,6 +222,10 @@ impl<'a> Frame<'a> {
         Ok(Frame {
             voxmap,
             nodes: shell.nodes(),
+            loads: match shell.node_loads() {
+                loads if loads.len() == shell.nodes().len() => loads,
+                _ => &[],
+            },
             points,
             normals,
             weights,

@@ -1,7 +1,9 @@
 //! The pointshell: points on a moving object's surface with inward normals, and their sphere tree.
+pub mod load;
 pub mod shell;
 pub mod tree;
 
+pub use load::{node_loads, NodeLoad};
 pub use shell::{area_weight, area_weights, Pointshell, PointshellStats};
 pub use tree::{SphereNode, SphereTree};
 
@@ -20,6 +22,10 @@ pub trait PointshellData: Sync {
     fn weights(&self) -> &[f32];
     /// The sphere tree's nodes, root first.
     fn nodes(&self) -> &[SphereNode];
+    /// What the points below each node push with ([`NodeLoad`]), one per node; empty if not
+    /// known, and then the time-critical query guesses each from the node's cone
+    /// ([`NodeLoad::from_cone`]).
+    fn node_loads(&self) -> &[NodeLoad];
 }
 
 impl PointshellData for Pointshell {
@@ -37,5 +43,8 @@ impl PointshellData for Pointshell {
     }
     fn nodes(&self) -> &[SphereNode] {
         &self.tree.nodes
+    }
+    fn node_loads(&self) -> &[NodeLoad] {
+        &self.loads
     }
 }

@@ -44,6 +44,11 @@ pub struct Pointshell {
     pub weights: Vec<f32>,
     /// The sphere tree over the points.
     pub tree: SphereTree,
+    /// What the points below each node push with, one per node of `tree`: sum them again
+    /// with [`crate::pointshell::node_loads`] after changing the points, normals, weights or
+    /// tree. May be left empty, at a cost in the time-critical query's accuracy
+    /// ([`crate::pointshell::PointshellData::node_loads`]).
+    pub loads: Vec<crate::pointshell::NodeLoad>,
     /// How the points were obtained.
     pub stats: PointshellStats,
 }

@@ -193,6 +193,7 @@ fn round_trips_with_the_header_filled_in() {
                     nodes: vec![],
                     leaf_size: LEAF_SIZE as u32,
                 },
+                loads: vec![],
                 stats: PointshellStats::default(),
             },
         ),
@@ -327,6 +328,7 @@ fn write_fuzz_seeds() {
         normals: vec![],
         weights: vec![],
         tree: SphereTree::default(),
+        loads: vec![],
         stats: PointshellStats::default(),
         ..tiny.clone()
     };

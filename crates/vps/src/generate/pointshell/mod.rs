@@ -189,6 +189,7 @@ pub fn pointshell(
     let points = reorder(&points, &order);
     let normals = reorder(&normals, &order);
     let weights = reorder(&weights, &order);
+    let loads = crate::pointshell::node_loads(&points, &normals, &weights, &tree.nodes);
     report.t_tree = t_spheres + t_cones.elapsed();
     Ok((
         Pointshell {
@@ -198,6 +199,7 @@ pub fn pointshell(
             normals,
             weights,
             tree,
+            loads,
             stats,
         },
         report,

@@ -325,3 +325,59 @@ fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
     assert!(replaced > 10_000, "only {replaced} distances replaced");
     assert!(in_contact >= 20, "only {in_contact} poses of 80 in contact");
 }
+
+/// A ball wholly inside a thick box, every point equally deep (beyond the reach): each node,
+/// standing in with its load, pushes as its points do. Guessed from its cone (all its points
+/// pushing along its axis with the axis' area weight, as every stand-in did before), a node
+/// whose normals spread pushes with far more than its points do together.
+#[test]
+fn stand_ins_deep_in_contact_push_as_their_points_do() {
+    let mesh = Mesh::from_triangles("static", cuboid(DVec3::splat(-6.0), DVec3::new(6.0, 6.0, 0.0))).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.25, 5)).unwrap();
+    let distances = signed_distances(&mesh, &vm);
+    let voxmap = CachedVoxmap::in_memory(vm.with_distances(distances));
+    let shell = ball_shell(1.0, 24, 0.08);
+    let unloaded = Pointshell {
+        loads: Vec::new(),
+        ..shell.clone()
+    };
+    // At least 3.5 inside every face, beyond the reach of 5.5 voxels (1.375).
+    let pose = Pose::new([0.2, -0.1, -2.8], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let params = ContactParams {
+        stiffness: 1.0,
+        ..Default::default()
+    };
+    let exact = super::contact(&voxmap, &shell, &pose, &params).unwrap();
+    assert_eq!(exact.points_in_contact as usize, shell.points.len());
+    let depth = exact.max_penetration;
+    // What the points of node `j` push with, each at that one depth.
+    let points_push = |j: usize| {
+        let r = shell.tree.nodes[j].points();
+        let f = r.clone().fold(DVec3::ZERO, |f, i| {
+            f + shell.normals[i].as_dvec3() * (shell.weights[i] as f64 * depth)
+        });
+        (f, r.map(|i| shell.weights[i] as f64 * depth).sum::<f64>())
+    };
+    let everything = points_push(0).0;
+    assert!(
+        (exact.force - everything).length() < 1e-6 * points_push(0).1,
+        "all points equally deep"
+    );
+    let stand_in = |s: &Pointshell, j: usize| {
+        let frame = Frame::new(&voxmap, s, &pose, &params).unwrap();
+        let mut acc = crate::haptics::Contact::default();
+        frame.approximate(&mut voxmap.cursor(), j, &mut acc).unwrap();
+        acc.force
+    };
+    let mut worst_guess: f64 = 0.0;
+    for j in (0..shell.tree.nodes.len()).filter(|&j| shell.tree.nodes[j].depth <= 6) {
+        let (push, total) = points_push(j);
+        let loaded = stand_in(&shell, j);
+        assert!(
+            (loaded - push).length() <= 1e-4 * total,
+            "node {j}: {loaded} against {push}"
+        );
+        worst_guess = worst_guess.max((stand_in(&unloaded, j) - push).length() / total);
+    }
+    assert!(worst_guess > 0.3, "{worst_guess}");
+}

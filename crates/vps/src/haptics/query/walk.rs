@@ -7,8 +7,7 @@ use rayon::prelude::*;
 
 use super::{Class, Contact, Frame, BLOCK_POINTS};
 use crate::haptics::cache::Cursor;
-use crate::pointshell::shell::area_weight_f64;
-use crate::pointshell::tree::SphereNode;
+use crate::pointshell::NodeLoad;
 use crate::storage::StorageError;
 
 /// The exact walk tests the nodes down to the first of at most this many points (the tasks) on
@@ -210,10 +209,11 @@ impl Frame<'_> {
         }
     }
 
-    /// Stand-in for the untested points of `node` when the budget has run out: its points, as
-    /// if all sat at its centre with the cone axis as normal, plus a bound on the error (see
-    /// `docs/HAPTICS.md`).
-    fn approximate(&self, cur: &mut Cursor<'_>, node: &SphereNode, acc: &mut Contact) -> Result<(), StorageError> {
+    /// Stand-in for the untested points of node `j` when the budget has run out: its points,
+    /// as if all were as deep as its centre, pushing with the node's summed load
+    /// ([`NodeLoad`]), plus a bound on the error (see `docs/HAPTICS.md`).
+    pub(super) fn approximate(&self, cur: &mut Cursor<'_>, j: usize, acc: &mut Contact) -> Result<(), StorageError> {
+        let node = &self.nodes[j];
         acc.nodes_approximated += 1;
         acc.points_approximated += node.point_count as u64;
         let (r, u) = self.place(node.center());
@@ -244,27 +244,28 @@ impl Frame<'_> {
         let bound = 2.0 * self.k * count * d_max;
         acc.force_error_bound += bound;
         acc.torque_error_bound += bound * (r.length() + node.radius as f64);
-        let axis = node.cone_axis().as_dvec3();
-        if value >= 0 && axis.length_squared() > 0.0 {
-            let n = axis.normalize();
-            let d = if self.reads_distances() {
-                // Blended from the centre's own brick, not from an apron of up to eight (or
-                // the sharp blend's 64 voxels), which in deep contact cost 4–40 µs an
-                // approximation, all of them after the deadline. Any estimate within
-                // [0, reach] keeps the bound; weighted like its points (weights are at most 1),
-                // it stays there.
-                self.s * cur.distance_in_brick(u) * area_weight_f64(n.as_vec3())
-            } else {
-                self.penetration(value, v, u, self.rot * n)
-            };
-            if d > 0.0 {
-                // In the pointshell's frame and unscaled, like the points' sums (see
-                // `test_points`).
-                acc.force += n * (count * d);
-                acc.torque += node.center().as_dvec3().cross(n) * (count * d);
-                // An estimate too: the weight counted twice, so it errs low.
-                acc.energy += count * d * d;
-            }
+        if value < 0 {
+            return Ok(());
+        }
+        let load = match self.loads.get(j) {
+            Some(load) => *load,
+            None => NodeLoad::from_cone(node),
+        };
+        let d = if self.reads_distances() {
+            // Blended from the centre's own brick, not from an apron of up to eight (or the
+            // sharp blend's 64 voxels), which in deep contact cost 4–40 µs an approximation,
+            // all of them after the deadline. Any estimate within [0, reach] keeps the bound.
+            self.s * cur.distance_in_brick(u)
+        } else {
+            self.penetration(value, v, u, self.rot * load.force().normalize_or_zero())
+        };
+        if d > 0.0 {
+            // In the pointshell's frame and unscaled, like the points' sums (see
+            // `test_points`): each point would push with w·d along its normal. The weights
+            // are at most 1, so |Σ w·n| ≤ count and the bound above holds.
+            acc.force += load.force() * d;
+            acc.torque += load.moment() * d;
+            acc.energy += load.weight as f64 * d * d;
         }
         Ok(())
     }
@@ -299,7 +300,7 @@ impl Frame<'_> {
             for (at, &i) in todo.iter().enumerate() {
                 if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
                     for &j in &todo[at..] {
-                        self.approximate(&mut cur, &self.nodes[j], acc)?;
+                        self.approximate(&mut cur, j, acc)?;
                     }
                     break;
                 }
@@ -320,7 +321,7 @@ impl Frame<'_> {
                 cost = (spent / refined_nodes as f64).max(MIN_NODE_SECONDS);
             }
             for &j in rest {
-                self.approximate(&mut cur, &self.nodes[j], acc)?;
+                self.approximate(&mut cur, j, acc)?;
             }
             std::mem::swap(&mut level, &mut next);
             next.clear();
