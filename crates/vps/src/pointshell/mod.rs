@@ -3,7 +3,7 @@ pub mod load;
 pub mod shell;
 pub mod tree;
 
-pub use load::{node_loads, NodeLoad};
+pub use load::{node_loads, NodeLoad, Push};
 pub use shell::{area_weight, area_weights, Pointshell, PointshellStats};
 pub use tree::{SphereNode, SphereTree};
 
@@ -23,9 +23,12 @@ pub trait PointshellData: Sync {
     /// The sphere tree's nodes, root first.
     fn nodes(&self) -> &[SphereNode];
     /// What the points below each node push with ([`NodeLoad`]), one per node; empty if not
-    /// known, and then the time-critical query guesses each from the node's cone
-    /// ([`NodeLoad::from_cone`]).
-    fn node_loads(&self) -> &[NodeLoad];
+    /// known (the default), and then the time-critical query guesses each from the node's
+    /// cone ([`NodeLoad::from_cone`]), as it does for a load that does not fit its node
+    /// ([`Push::fits`]).
+    fn node_loads(&self) -> &[NodeLoad] {
+        &[]
+    }
 }
 
 impl PointshellData for Pointshell {

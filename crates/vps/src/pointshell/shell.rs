@@ -66,8 +66,8 @@ pub fn area_weight(n: Vec3) -> f32 {
     area_weight_f64(n) as f32
 }
 
-/// [`area_weight`] before its rounding to `f32`, as the time-critical estimate of a node uses it
-/// on the node's cone axis.
+/// [`area_weight`] before its rounding to `f32`, as [`crate::pointshell::NodeLoad::from_cone`]
+/// uses it on a node's cone axis.
 #[inline(always)]
 pub(crate) fn area_weight_f64(n: Vec3) -> f64 {
     1.0 / (n.x.abs() as f64 + n.y.abs() as f64 + n.z.abs() as f64)

@@ -327,9 +327,10 @@ fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
 }
 
 /// A ball wholly inside a thick box, every point equally deep (beyond the reach): each node,
-/// standing in with its load, pushes as its points do. Guessed from its cone (all its points
-/// pushing along its axis with the axis' area weight, as every stand-in did before), a node
-/// whose normals spread pushes with far more than its points do together.
+/// standing in with its load, pushes as its points do, force and torque. Guessed from its cone
+/// (all its points pushing along its axis with the axis' area weight, as every stand-in did
+/// before), a node whose normals spread pushes with far more than its points do together.
+/// With the layers, a stand-in pushes unweighted, as the layers' points do.
 #[test]
 fn stand_ins_deep_in_contact_push_as_their_points_do() {
     let mesh = Mesh::from_triangles("static", cuboid(DVec3::splat(-6.0), DVec3::new(6.0, 6.0, 0.0))).unwrap();
@@ -341,7 +342,7 @@ fn stand_ins_deep_in_contact_push_as_their_points_do() {
         loads: Vec::new(),
         ..shell.clone()
     };
-    // At least 3.5 inside every face, beyond the reach of 5.5 voxels (1.375).
+    // The ball's top 1.8 below the box's top face, beyond the reach of 5.5 voxels (1.375).
     let pose = Pose::new([0.2, -0.1, -2.8], [1.0, 0.0, 0.0, 0.0]).unwrap();
     let params = ContactParams {
         stiffness: 1.0,
@@ -350,34 +351,55 @@ fn stand_ins_deep_in_contact_push_as_their_points_do() {
     let exact = super::contact(&voxmap, &shell, &pose, &params).unwrap();
     assert_eq!(exact.points_in_contact as usize, shell.points.len());
     let depth = exact.max_penetration;
-    // What the points of node `j` push with, each at that one depth.
-    let points_push = |j: usize| {
-        let r = shell.tree.nodes[j].points();
-        let f = r.clone().fold(DVec3::ZERO, |f, i| {
-            f + shell.normals[i].as_dvec3() * (shell.weights[i] as f64 * depth)
-        });
-        (f, r.map(|i| shell.weights[i] as f64 * depth).sum::<f64>())
+    // What the points of node `j` push with, each with weight `w(i)` at depth `d`: force,
+    // torque (the pointshell's frame, about its origin, as a stand-in sums them) and Σ w·d.
+    let points_push = |j: usize, w: &dyn Fn(usize) -> f64, d: f64| {
+        shell.tree.nodes[j]
+            .points()
+            .fold((DVec3::ZERO, DVec3::ZERO, 0.0), |(f, t, m), i| {
+                let (p, n) = (shell.points[i].as_dvec3(), shell.normals[i].as_dvec3());
+                (f + n * (w(i) * d), t + p.cross(n) * (w(i) * d), m + w(i) * d)
+            })
     };
-    let everything = points_push(0).0;
+    let weight = |i: usize| shell.weights[i] as f64;
+    let (everything, _, total) = points_push(0, &weight, depth);
     assert!(
-        (exact.force - everything).length() < 1e-6 * points_push(0).1,
+        (exact.force - everything).length() < 1e-6 * total,
         "all points equally deep"
     );
-    let stand_in = |s: &Pointshell, j: usize| {
+    let stand_in = |s: &Pointshell, j: usize, penetration: Penetration| {
+        let params = ContactParams { penetration, ..params };
         let frame = Frame::new(&voxmap, s, &pose, &params).unwrap();
         let mut acc = crate::haptics::Contact::default();
         frame.approximate(&mut voxmap.cursor(), j, &mut acc).unwrap();
-        acc.force
+        acc
     };
     let mut worst_guess: f64 = 0.0;
     for j in (0..shell.tree.nodes.len()).filter(|&j| shell.tree.nodes[j].depth <= 6) {
-        let (push, total) = points_push(j);
-        let loaded = stand_in(&shell, j);
+        let (force, torque, total) = points_push(j, &weight, depth);
+        let loaded = stand_in(&shell, j, Penetration::Distance);
         assert!(
-            (loaded - push).length() <= 1e-4 * total,
-            "node {j}: {loaded} against {push}"
+            (loaded.force - force).length() <= 1e-4 * total,
+            "node {j}: {} against {force}",
+            loaded.force
         );
-        worst_guess = worst_guess.max((stand_in(&unloaded, j) - push).length() / total);
+        assert!(
+            (loaded.torque - torque).length() <= 1e-3 * total,
+            "node {j}: {} against {torque}",
+            loaded.torque
+        );
+        worst_guess = worst_guess.max((stand_in(&unloaded, j, Penetration::Distance).force - force).length() / total);
+        // With the layers the depth at the centre is its own; the sums are the unweighted.
+        let layers = stand_in(&shell, j, Penetration::Layers);
+        let count = shell.tree.nodes[j].point_count as f64;
+        let d = (layers.energy / count).sqrt();
+        let (force, torque, total) = points_push(j, &|_| 1.0, d);
+        assert!(
+            d > 0.0 && (layers.force - force).length() <= 1e-4 * total,
+            "node {j}: {} against {force}",
+            layers.force
+        );
+        assert!((layers.torque - torque).length() <= 1e-3 * total, "node {j}");
     }
     assert!(worst_guess > 0.3, "{worst_guess}");
 }

@@ -247,9 +247,17 @@ impl Frame<'_> {
         if value < 0 {
             return Ok(());
         }
-        let load = match self.loads.get(j) {
-            Some(load) => *load,
-            None => NodeLoad::from_cone(node),
+        // The layers push unweighted (the paper's formula), the distances with the weights.
+        let pick = |l: NodeLoad| {
+            if self.reads_distances() {
+                l.weighted
+            } else {
+                l.unweighted
+            }
+        };
+        let load = match self.loads.get(j).map(|&l| pick(l)) {
+            Some(push) if push.fits(node) => push,
+            _ => pick(NodeLoad::from_cone(node)),
         };
         let d = if self.reads_distances() {
             // Blended from the centre's own brick, not from an apron of up to eight (or the
@@ -261,8 +269,9 @@ impl Frame<'_> {
         };
         if d > 0.0 {
             // In the pointshell's frame and unscaled, like the points' sums (see
-            // `test_points`): each point would push with w·d along its normal. The weights
-            // are at most 1, so |Σ w·n| ≤ count and the bound above holds.
+            // `test_points`): each point would push with w·d along its normal (w = 1 with the
+            // layers). A load that fits its node has |Σ w·n| ≤ count and its points within the
+            // sphere, so the bounds above hold.
             acc.force += load.force() * d;
             acc.torque += load.moment() * d;
             acc.energy += load.weight as f64 * d * d;
