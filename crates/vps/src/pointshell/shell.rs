@@ -45,8 +45,8 @@ pub struct Pointshell {
     /// The sphere tree over the points.
     pub tree: SphereTree,
     /// What the points below each node push with, one per node of `tree`: sum them again
-    /// with [`crate::pointshell::node_loads`] after changing the points, normals, weights or
-    /// tree. May be left empty, at a cost in the time-critical query's accuracy
+    /// ([`Pointshell::sum_loads`]) after changing the points, normals, weights or tree. May be
+    /// left empty, at a cost in the time-critical query's accuracy
     /// ([`crate::pointshell::PointshellData::node_loads`]).
     pub loads: Vec<crate::pointshell::NodeLoad>,
     /// How the points were obtained.
@@ -93,5 +93,15 @@ impl Pointshell {
     /// Point `i` in the object's frame.
     pub fn point(&self, i: usize) -> DVec3 {
         self.origin + self.points[i].as_dvec3()
+    }
+
+    /// Sum [`Pointshell::loads`] again from the points, normals, weights and tree.
+    ///
+    /// # Panics
+    /// If the tree indexes points that do not exist, or there are not as many normals and
+    /// weights as points.
+    pub fn sum_loads(&mut self) {
+        assert!(self.normals.len() == self.points.len() && self.weights.len() == self.points.len());
+        self.loads = crate::pointshell::node_loads(&self.points, &self.normals, &self.weights, &self.tree.nodes);
     }
 }

@@ -169,7 +169,7 @@ fn weights_outside_0_to_1_are_refused() {
     let mut edge = shell.clone();
     (edge.weights[0], edge.weights[1]) = (0.0, 1.0);
     // The loads follow the weights; opening sums them again.
-    edge.loads = vps::pointshell::node_loads(&edge.points, &edge.normals, &edge.weights, &edge.tree.nodes);
+    edge.sum_loads();
     let dir = tempfile::tempdir().unwrap();
     write_pointshell(dir.path().join("edge.vps"), &edge).unwrap();
     assert_eq!(
@@ -275,8 +275,8 @@ fn a_corrupt_tree_behind_valid_checksums_is_named() {
     let one = ball(1.8, 0.5);
     let (tree, _) = SphereTree::build(&one.points, &one.normals, 100_000);
     assert_eq!(tree.nodes.len(), 1);
-    let loads = vps::pointshell::node_loads(&one.points, &one.normals, &one.weights, &tree.nodes);
-    let lone = Pointshell { tree, loads, ..one };
+    let mut lone = Pointshell { tree, ..one };
+    lone.sum_loads();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("lone.vps");
     write_pointshell(&path, &lone).unwrap();
