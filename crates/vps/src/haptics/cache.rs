@@ -568,6 +568,17 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// A random point of grid units, up to `margin` beyond a grid of `dims` voxels on each side:
+/// where the look-up tests read the [`test_ball`].
+#[cfg(test)]
+fn random_point(rng: &mut crate::shapes::SplitMix, dims: [f64; 3], margin: f64) -> DVec3 {
+    DVec3::new(
+        rng.range(-margin, dims[0] + margin),
+        rng.range(-margin, dims[1] + margin),
+        rng.range(-margin, dims[2] + margin),
+    )
+}
+
 /// A ball of radius 0.75 voxelized with distances (voxels of 0.1, 3 layers), in memory: the
 /// voxmap the look-up tests read at random points.
 #[cfg(test)]

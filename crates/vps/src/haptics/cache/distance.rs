@@ -499,11 +499,7 @@ mod tests {
         let mut rng = SplitMix(11);
         let (mut inside, mut extrapolated) = (0, 0);
         for _ in 0..20_000 {
-            let u = DVec3::new(
-                rng.range(0.0, dims[0]),
-                rng.range(0.0, dims[1]),
-                rng.range(0.0, dims[2]),
-            );
+            let u = super::super::random_point(&mut rng, dims, 0.0);
             let got = cur.distance_in_brick(u);
             assert!((lo..=hi).contains(&(got / DISTANCE_STEP)), "at {u}: {got}");
             let voxel = [u.x, u.y, u.z].map(|x| x.floor() as i64);

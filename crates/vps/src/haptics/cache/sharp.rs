@@ -133,7 +133,6 @@ fn keep_ridge(f: [f64; 4], t: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use glam::DVec3;
 
     use super::{cell_anywhere, keep_ridge, NEIGHBOUR_STEPS};
     use crate::shapes::SplitMix;
@@ -150,11 +149,7 @@ mod tests {
         let (lo, hi) = (cur.far_out as f64, cur.far_in as f64);
         let mut rng = SplitMix(3);
         for _ in 0..20_000 {
-            let u = DVec3::new(
-                rng.range(-2.0, dims[0] + 2.0),
-                rng.range(-2.0, dims[1] + 2.0),
-                rng.range(-2.0, dims[2] + 2.0),
-            );
+            let u = super::super::random_point(&mut rng, dims, 2.0);
             let got = cur.sharp_distance_at(u);
             let (b, t) = cell_anywhere(u);
             let mut planes = [0.0; 4];
