@@ -142,6 +142,13 @@ impl std::fmt::Debug for CachedVoxmap {
     }
 }
 
+/// The entry of brick `b` in a cursor's table: direct-mapped by brick coordinates, so any
+/// 16 × 16 × 16 bricks fit without clashes.
+#[inline(always)]
+fn table_entry(b: [u32; 3]) -> usize {
+    (b[0] as usize & 15) << 8 | (b[1] as usize & 15) << 4 | (b[2] as usize & 15)
+}
+
 #[inline]
 fn shard_of(key: u64) -> usize {
     // Fibonacci hashing: neighbouring keys land in different shards.
@@ -458,6 +465,36 @@ impl<'a> Cursor<'a> {
         u.x >= 0.0 && u.y >= 0.0 && u.z >= 0.0 && u.x < d.x && u.y < d.y && u.z < d.z
     }
 
+    /// Whether reading voxel `v` (in the grid) would go to the source: its brick is in
+    /// neither this cursor's table nor the shared cache. A stored brick is then decoded, and
+    /// even a tile is looked for in the file's index, which costs several cache misses.
+    pub(crate) fn is_cold(&self, v: [u32; 3]) -> bool {
+        let key = self.key(split_voxel(v).0);
+        !self.in_table(v)
+            && !self.voxmap.shards[shard_of(key)]
+                .read()
+                .unwrap_or_else(|e| e.into_inner())
+                .contains_key(&key)
+    }
+
+    /// Whether voxel `v`'s brick (`v` in the grid) is in this cursor's table, so that reading
+    /// it takes no lock. True without a table: the cursor then reads nothing.
+    #[inline]
+    pub(crate) fn in_table(&self, v: [u32; 3]) -> bool {
+        let Some(table) = &self.table else {
+            return true;
+        };
+        let (b, _) = split_voxel(v);
+        table.keys[table_entry(b)] == self.key(b)
+    }
+
+    /// The shared cache's key of brick `b`.
+    #[inline(always)]
+    fn key(&self, b: [u32; 3]) -> u64 {
+        let n = self.brick_dims;
+        (b[0] as u64 * n[1] + b[1] as u64) * n[2] + b[2] as u64
+    }
+
     /// The value of voxel `v`, which must lie in the grid.
     #[inline(always)]
     fn voxel(&mut self, v: [u32; 3]) -> i8 {
@@ -488,10 +525,8 @@ impl<'a> Cursor<'a> {
     /// Make brick `b` the current one, from the table or the shared cache.
     #[inline(never)]
     fn switch_to(&mut self, b: [u32; 3]) {
-        let n = self.brick_dims;
-        let key = (b[0] as u64 * n[1] + b[1] as u64) * n[2] + b[2] as u64;
-        // Direct-mapped by brick coordinates: any 16 × 16 × 16 bricks fit without clashes.
-        let at = (b[0] as usize & 15) << 8 | (b[1] as usize & 15) << 4 | (b[2] as usize & 15);
+        let key = self.key(b);
+        let at = table_entry(b);
         self.switches += 1;
         let Some(table) = &mut self.table else { return };
         if table.keys[at] != key {

@@ -54,28 +54,53 @@ impl Cursor<'_> {
     /// to the reach. The same as `distance_at` where the blend's cell lies in the brick. Only
     /// for a voxmap with distances.
     pub(crate) fn distance_in_brick(&mut self, u: DVec3) -> f64 {
+        self.in_brick(u, |blend| blend(u))
+    }
+
+    /// [`Cursor::distance_in_brick`] at `u` and its slope there (voxels a voxel): central
+    /// differences one voxel either side, read from the same brick (extrapolated beyond it),
+    /// so that no other brick is decoded. Zero slope where the distance is one value.
+    pub(crate) fn distance_and_slope_in_brick(&mut self, u: DVec3) -> (f64, DVec3) {
+        self.in_brick(u, |blend| {
+            let slope = DVec3::from_array(std::array::from_fn(|a| {
+                let e = DVec3::AXES[a];
+                (blend(u + e) - blend(u - e)) / 2.0
+            }));
+            (blend(u), slope)
+        })
+    }
+
+    /// `f` given the blend of the distances of `u`'s brick (`u` in the grid) at any point, in
+    /// voxels: trilinear over the brick's eight voxel centres nearest the point, extrapolated
+    /// linearly beyond its outer centres, clamped to the reach; a constant for a brick of one
+    /// distance.
+    #[inline(always)]
+    fn in_brick<R>(&mut self, u: DVec3, f: impl FnOnce(&dyn Fn(DVec3) -> f64) -> R) -> R {
         const LAST: usize = BRICK as usize - 1;
         let (far_out, far_in) = (self.far_out, self.far_in);
         // In the grid, so truncation is the floor.
         let (b, _) = split_voxel([u.x as u32, u.y as u32, u.z as u32]);
         let origin = b.map(|x| f64::from(x << BRICK_SHIFT));
         let ds = match self.brick_source(b) {
-            BrickSource::Uniform(d) => return d as f64 * DISTANCE_STEP,
+            BrickSource::Uniform(d) => return f(&|_| d as f64 * DISTANCE_STEP),
             BrickSource::Stored(ds) => ds,
         };
-        let (mut lower, mut t) = ([0usize; 3], [0.0f64; 3]);
-        for a in 0..3 {
-            // From −0.5 to 7.5: the brick's voxel centres lie at 0 … 7.
-            let c = u[a] - 0.5 - origin[a];
-            lower[a] = (c.max(0.0) as usize).min(LAST - 1);
-            t[a] = c - lower[a] as f64;
-        }
-        let at = (lower[2] * BRICK as usize + lower[1]) * BRICK as usize + lower[0];
-        let corners = std::array::from_fn(|j| {
-            let up = neighbour(j);
-            ds[at + up[0] + (up[1] + up[2] * BRICK as usize) * BRICK as usize] as f64
-        });
-        blend(corners, t).clamp(far_out as f64, far_in as f64) * DISTANCE_STEP
+        let blend_at = |p: DVec3| {
+            let (mut lower, mut t) = ([0usize; 3], [0.0f64; 3]);
+            for a in 0..3 {
+                // From −0.5 to 7.5: the brick's voxel centres lie at 0 … 7.
+                let c = p[a] - 0.5 - origin[a];
+                lower[a] = (c.max(0.0) as usize).min(LAST - 1);
+                t[a] = c - lower[a] as f64;
+            }
+            let at = (lower[2] * BRICK as usize + lower[1]) * BRICK as usize + lower[0];
+            let corners = std::array::from_fn(|j| {
+                let up = neighbour(j);
+                ds[at + up[0] + (up[1] + up[2] * BRICK as usize) * BRICK as usize] as f64
+            });
+            blend(corners, t).clamp(far_out as f64, far_in as f64) * DISTANCE_STEP
+        };
+        f(&blend_at)
     }
 
     /// The distances of brick `b`, which must lie in the grid.

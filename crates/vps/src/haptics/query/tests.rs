@@ -23,6 +23,15 @@ fn voxmap(layers: i32) -> CachedVoxmap {
     CachedVoxmap::in_memory(vm.with_distances(distances))
 }
 
+/// A box 12 wide and 6 thick whose top face is the plane z = 0: voxels of 0.25, 5 layers,
+/// with distances.
+fn thick_box() -> CachedVoxmap {
+    let mesh = Mesh::from_triangles("static", cuboid(DVec3::splat(-6.0), DVec3::new(6.0, 6.0, 0.0))).unwrap();
+    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.25, 5)).unwrap();
+    let distances = signed_distances(&mesh, &vm);
+    CachedVoxmap::in_memory(vm.with_distances(distances))
+}
+
 /// The pointshell of a ball of `radius` about the origin, sampled at `voxel`.
 fn ball_shell(radius: f64, stacks: u32, voxel: f64) -> Pointshell {
     let moving = Mesh::from_triangles("moving", sphere(DVec3::ZERO, radius, stacks, 2 * stacks)).unwrap();
@@ -333,10 +342,7 @@ fn no_contact_reads_the_distances_beyond_the_first_outer_layer() {
 /// With the layers, a stand-in pushes unweighted, as the layers' points do.
 #[test]
 fn stand_ins_deep_in_contact_push_as_their_points_do() {
-    let mesh = Mesh::from_triangles("static", cuboid(DVec3::splat(-6.0), DVec3::new(6.0, 6.0, 0.0))).unwrap();
-    let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.25, 5)).unwrap();
-    let distances = signed_distances(&mesh, &vm);
-    let voxmap = CachedVoxmap::in_memory(vm.with_distances(distances));
+    let voxmap = thick_box();
     let shell = ball_shell(1.0, 24, 0.08);
     let unloaded = Pointshell {
         loads: Vec::new(),
@@ -371,7 +377,7 @@ fn stand_ins_deep_in_contact_push_as_their_points_do() {
         let params = ContactParams { penetration, ..params };
         let frame = Frame::new(&voxmap, s, &pose, &params).unwrap();
         let mut acc = crate::haptics::Contact::default();
-        frame.approximate(&mut voxmap.cursor(), j, &mut acc).unwrap();
+        frame.approximate(&mut voxmap.cursor(), j, None, &mut acc).unwrap();
         acc
     };
     let mut worst_guess: f64 = 0.0;
@@ -402,4 +408,53 @@ fn stand_ins_deep_in_contact_push_as_their_points_do() {
         assert!((layers.torque - torque).length() <= 1e-3 * total, "node {j}");
     }
     assert!(worst_guess > 0.3, "{worst_guess}");
+}
+
+/// After the deadline a stand-in whose centre's brick is cold reads no brick: it takes the
+/// depth at its parent's centre, whose brick the parent's test read, along the slope there.
+/// Under a box's flat top face the distance is linear, so it pushes as the stand-in reading its
+/// own brick does, within the distances' rounding.
+#[test]
+fn a_cold_stand_in_follows_its_parents_slope_and_reads_no_brick() {
+    let voxmap = thick_box();
+    let shell = ball_shell(1.0, 24, 0.08);
+    // The ball straddles the face: its centre 0.3 below it, tilted.
+    let pose = Pose::new([0.2, -0.1, -0.3], [0.9, 0.2, -0.3, 0.1]).unwrap();
+    let params = ContactParams::default();
+    let frame = Frame::new(&voxmap, &shell, &pose, &params).unwrap();
+    let nodes = &shell.tree.nodes;
+    let (mut cold, mut pushing) = (0, 0);
+    for p in 0..nodes.len() {
+        let Some(children) = nodes[p].children() else { continue };
+        for j in children {
+            voxmap.clear();
+            let mut cur = voxmap.cursor();
+            // The parent's test read its brick.
+            let (_, up) = frame.place(nodes[p].center());
+            assert!(cur.in_grid(up).is_some());
+            let (_, u) = frame.place(nodes[j].center());
+            if !cur.is_cold([u.x as u32, u.y as u32, u.z as u32]) {
+                continue;
+            }
+            cold += 1;
+            let misses = voxmap.stats().misses;
+            let mut from_parent = crate::haptics::Contact::default();
+            frame.approximate(&mut cur, j, Some(p), &mut from_parent).unwrap();
+            assert_eq!(voxmap.stats().misses, misses, "node {j} read a brick");
+            let mut own = crate::haptics::Contact::default();
+            frame.approximate(&mut voxmap.cursor(), j, None, &mut own).unwrap();
+            // Two rounding steps of the distances, of the node's whole weight.
+            let weight = shell.loads[j].weighted.weight as f64;
+            let step = frame.s / 16.0;
+            assert!(
+                (from_parent.force - own.force).length() <= step * weight * (1.0 + 1e-9),
+                "node {j}: {} against {}",
+                from_parent.force,
+                own.force
+            );
+            assert!(from_parent.force_error_bound >= own.force_error_bound);
+            pushing += (own.force.length() > 0.0) as u32;
+        }
+    }
+    assert!(cold >= 50 && pushing >= 20, "{cold} cold stand-ins, {pushing} pushing");
 }

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::{Class, Contact, Frame, BLOCK_POINTS};
 use crate::haptics::cache::Cursor;
-use crate::pointshell::NodeLoad;
+use crate::pointshell::{NodeLoad, SphereNode};
 use crate::storage::StorageError;
 
 /// The exact walk tests the nodes down to the first of at most this many points (the tasks) on
@@ -17,13 +17,47 @@ use crate::storage::StorageError;
 /// tests decode bricks).
 pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
 
-/// The time-critical walk checks the clock every this many nodes.
+/// The time-critical walk checks the clock every this many nodes, and before every leaf's
+/// points.
 const CLOCK_EVERY: usize = 16;
 
-/// Planning the time-critical walk: the time per node assumed before any is measured, and the
-/// least assumed after (a level of a few nodes measures mostly the clock).
+/// Planning the time-critical walk: the time per node test and per point tested assumed before
+/// any is measured, and the least assumed after (a level of a few nodes measures mostly the
+/// clock).
 const INITIAL_NODE_SECONDS: f64 = 100e-9;
 const MIN_NODE_SECONDS: f64 = 10e-9;
+const INITIAL_POINT_SECONDS: f64 = 50e-9;
+const MIN_POINT_SECONDS: f64 = 2e-9;
+
+/// What the time-critical walk has measured of its own speed over the levels refined so far:
+/// node tests and leaves' points apart, since a leaf costs its points (about 1 µs against
+/// 0.1–0.3 µs a node test in the built-in plunge), and one mean over both misjudged the level
+/// where the leaves begin.
+#[derive(Default)]
+struct Pace {
+    node_seconds: f64,
+    nodes: usize,
+    point_seconds: f64,
+    points: u64,
+}
+
+impl Pace {
+    /// Seconds a node test takes, and so a stand-in, which reads about as much.
+    fn node(&self) -> f64 {
+        match self.nodes {
+            0 => INITIAL_NODE_SECONDS,
+            n => (self.node_seconds / n as f64).max(MIN_NODE_SECONDS),
+        }
+    }
+
+    /// Seconds a leaf's point takes.
+    fn point(&self) -> f64 {
+        match self.points {
+            0 => INITIAL_POINT_SECONDS,
+            n => (self.point_seconds / n as f64).max(MIN_POINT_SECONDS),
+        }
+    }
+}
 
 /// What the exact walk below a node adds: the sums of its blocks, in block order, and the
 /// nodes it tested and culled above them.
@@ -209,22 +243,70 @@ impl Frame<'_> {
         }
     }
 
+    /// Whether testing `node` reads a brick already in `cur`'s table (or none): one not at hand
+    /// may have to be decoded, about 4 µs, so the clock is read first.
+    fn at_hand(&self, cur: &Cursor<'_>, node: &SphereNode) -> bool {
+        let (_, u) = self.place(node.center());
+        !cur.contains(u) || cur.in_table([u.x as u32, u.y as u32, u.z as u32])
+    }
+
+    /// How many of `level`'s first nodes to refine with `left` seconds left. Refining a node
+    /// costs a node test, and then its points if it is a leaf, or the stand-ins of its two
+    /// children if the budget runs out below; leaving it costs its own stand-in (about a node
+    /// test). The most nodes whose refinement and the others' stand-ins fit in `left`.
+    fn refinable(&self, level: &[(usize, Option<usize>)], left: f64, pace: &Pace) -> usize {
+        let (node, point) = (pace.node(), pace.point());
+        let mut total = level.len() as f64 * node;
+        for (at, &(i, _)) in level.iter().enumerate() {
+            let n = &self.nodes[i];
+            total += match n.children() {
+                Some(_) => 2.0 * node,
+                None => n.point_count as f64 * point,
+            };
+            if total > left {
+                return at;
+            }
+        }
+        level.len()
+    }
+
     /// Stand-in for the untested points of node `j` when the budget has run out: its points,
     /// as if all were as deep as its centre, pushing with the node's summed load
     /// ([`NodeLoad`]), plus a bound on the error (see `docs/HAPTICS.md`).
-    pub(super) fn approximate(&self, cur: &mut Cursor<'_>, j: usize, acc: &mut Contact) -> Result<(), StorageError> {
+    ///
+    /// With distances, a node whose centre's brick is cold (in no cache: a stored brick to
+    /// decode, or a tile to look for in the file's index) reads no brick when its `parent` is
+    /// given and its centre lies in the grid: the parent's test read the parent's brick, so
+    /// the depth at the parent's centre is carried to the node's along the slope there, and
+    /// the bound is taken from the parent's centre and radius, which hold the node's points
+    /// too. Reading bricks after the deadline made the budgeted queries overrun
+    /// (`docs/PERFORMANCE.md`).
+    pub(super) fn approximate(
+        &self,
+        cur: &mut Cursor<'_>,
+        j: usize,
+        parent: Option<usize>,
+        acc: &mut Contact,
+    ) -> Result<(), StorageError> {
         let node = &self.nodes[j];
         acc.nodes_approximated += 1;
         acc.points_approximated += node.point_count as u64;
         let (r, u) = self.place(node.center());
-        let looked_up = cur.in_grid(u);
+        let from_parent = parent
+            .filter(|_| self.reads_distances() && cur.contains(u))
+            .filter(|_| cur.is_cold([u.x as u32, u.y as u32, u.z as u32]))
+            .map(|p| (&self.nodes[p], self.place(self.nodes[p].center()).1))
+            .filter(|&(_, up)| cur.contains(up));
+        // The sphere the bound is taken over: the node's, or its parent's.
+        let (radius, at) = from_parent.map_or((node.radius, u), |(p, up)| (p.radius, up));
+        let looked_up = cur.in_grid(at);
         cur.check()?;
         let inside_grid = looked_up.is_some();
         let (value, v) = looked_up.unwrap_or((self.outside, [0; 3]));
         // Values change by at most 1 per voxel step, except one step of 2 from −1 to +1
         // across a diagonal, and a point within r is at most floor(r/s) + 1 steps away.
         // An interpolated distance reads one voxel further, a sharp one two.
-        let steps = (node.radius as f64 * self.inv_s).floor() as i32 + self.reach_voxels();
+        let steps = (radius as f64 * self.inv_s).floor() as i32 + self.reach_voxels();
         let v_max = if inside_grid {
             (value as i32 + steps + 1).min(self.layers + 1)
         } else {
@@ -244,7 +326,7 @@ impl Frame<'_> {
         let bound = 2.0 * self.k * count * d_max;
         acc.force_error_bound += bound;
         acc.torque_error_bound += bound * (r.length() + node.radius as f64);
-        if value < 0 {
+        if value < 0 && from_parent.is_none() {
             return Ok(());
         }
         // The layers push unweighted (the paper's formula), the distances with the weights.
@@ -259,7 +341,10 @@ impl Frame<'_> {
             Some(push) if push.fits(node) => push,
             _ => pick(NodeLoad::from_cone(node)),
         };
-        let d = if self.reads_distances() {
+        let d = if let Some((_, up)) = from_parent {
+            let (depth, slope) = cur.distance_and_slope_in_brick(up);
+            self.s * (depth + slope.dot(u - up)).clamp(0.0, self.reach)
+        } else if self.reads_distances() {
             // Blended from the centre's own brick, not from an apron of up to eight (or the
             // sharp blend's 64 voxels), which in deep contact cost 4–40 µs an approximation,
             // all of them after the deadline. Any estimate within [0, reach] keeps the bound.
@@ -281,56 +366,59 @@ impl Frame<'_> {
 
     /// Breadth-first refinement until `deadline`, on the calling thread.
     ///
-    /// Each level is planned before it starts: refining a node costs about one node's time now
-    /// and, if the budget then runs out, the approximation of its two children later; leaving it
-    /// costs its own approximation. With `c` the measured time per node, `L` nodes in the level
-    /// and `R` time left, refining the first `P` nodes costs `(L + 2P)·c`, so
-    /// `P = (R/c − L) / 2`. The clock is still read every [`CLOCK_EVERY`] nodes in case the
-    /// estimate was low.
+    /// Each level is planned before it starts ([`Frame::refinable`]): its first nodes are
+    /// refined, as many as leave time to stand in for the rest and for the refined nodes'
+    /// children. In case the plan was wrong, the clock is also read every [`CLOCK_EVERY`]
+    /// nodes, before every leaf's points and before every node whose brick is not in the
+    /// cursor's table (it may have to be decoded), and the level stops as soon as the time left
+    /// no longer covers the stand-ins it would then owe.
     pub(super) fn walk_budgeted(&self, deadline: Instant, acc: &mut Contact) -> Result<(), StorageError> {
-        let mut level: Vec<usize> = if self.nodes.is_empty() { vec![] } else { vec![0] };
+        // Each node with its parent, whose test read the parent's brick (see `approximate`).
+        let mut level: Vec<(usize, Option<usize>)> = if self.nodes.is_empty() { vec![] } else { vec![(0, None)] };
         let mut next = Vec::new();
         let mut cur = self.voxmap.cursor();
-        // Seconds per node, including a leaf's points: the mean over the levels refined so far,
-        // which spreads the fixed cost of a level (the clock, the first brick look-ups) over its
-        // nodes.
-        let mut cost = INITIAL_NODE_SECONDS;
-        let (mut spent, mut refined_nodes) = (0.0f64, 0usize);
+        let mut pace = Pace::default();
         while !level.is_empty() {
             let started = Instant::now();
-            let left = deadline.saturating_duration_since(started).as_secs_f64();
-            let l = level.len() as f64;
-            let refine = if left >= 3.0 * l * cost {
-                level.len()
-            } else {
-                ((left / cost - l) / 2.0).max(0.0) as usize
-            };
-            let (todo, rest) = level.split_at(refine.min(level.len()));
-            for (at, &i) in todo.iter().enumerate() {
-                if at % CLOCK_EVERY == 0 && Instant::now() >= deadline {
-                    for &j in &todo[at..] {
-                        self.approximate(&mut cur, j, acc)?;
-                    }
+            let refine = self.refinable(&level, deadline.saturating_duration_since(started).as_secs_f64(), &pace);
+            let todo = &level[..refine];
+            let (mut point_seconds, mut points) = (0.0, 0);
+            let stand_in_seconds = pace.node();
+            let mut refined = 0;
+            for &(i, _) in todo {
+                let node = &self.nodes[i];
+                let leaf = node.children().is_none();
+                // Stop while the time left still covers the stand-ins owed if it stops here.
+                let owed = (level.len() - refined + next.len()) as f64 * stand_in_seconds;
+                if (refined % CLOCK_EVERY == 0 || leaf || !self.at_hand(&cur, node))
+                    && deadline.saturating_duration_since(Instant::now()).as_secs_f64() <= owed
+                {
                     break;
                 }
-                let node = &self.nodes[i];
+                refined += 1;
                 acc.nodes_tested += 1;
                 if self.is_outside(&mut cur, node)? {
                     acc.nodes_culled += 1;
                     continue;
                 }
                 match node.children() {
-                    Some([a, b]) => next.extend([a, b]),
-                    None => self.test_points(&mut cur, node.points(), acc),
+                    Some([a, b]) => next.extend([(a, Some(i)), (b, Some(i))]),
+                    None => {
+                        let t = Instant::now();
+                        self.test_points(&mut cur, node.points(), acc);
+                        point_seconds += t.elapsed().as_secs_f64();
+                        points += node.point_count as u64;
+                    }
                 }
             }
-            if !todo.is_empty() {
-                spent += started.elapsed().as_secs_f64();
-                refined_nodes += todo.len();
-                cost = (spent / refined_nodes as f64).max(MIN_NODE_SECONDS);
+            if refined > 0 {
+                pace.node_seconds += started.elapsed().as_secs_f64() - point_seconds;
+                pace.nodes += refined;
+                pace.point_seconds += point_seconds;
+                pace.points += points;
             }
-            for &j in rest {
-                self.approximate(&mut cur, j, acc)?;
+            for &(j, parent) in &level[refined..] {
+                self.approximate(&mut cur, j, parent, acc)?;
             }
             std::mem::swap(&mut level, &mut next);
             next.clear();
