@@ -1,6 +1,7 @@
 //! Arbitrary bytes as a `.vxm` file: opening, the header values `vps info` derives, probing,
-//! verifying and loading must return errors, never panic; a file that opens has header values
-//! within the format's limits, and one that verifies has the header's counts.
+//! verifying, loading and reading through the contact query's cache must return errors, never
+//! panic; a file that opens has header values within the format's limits, and one that
+//! verifies has the header's counts and reads the same through the cache as directly.
 //!
 //! The first input byte is a mode: if its low bit is set, the checksums of the rest are
 //! recomputed before opening. Random mutations almost never keep a CRC valid, so without
@@ -8,6 +9,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use vps::haptics::CachedVoxmap;
 use vps::storage::format::{RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES};
 use vps::storage::VoxmapFile;
 
@@ -43,7 +45,7 @@ fn probe(data: &[u8]) {
         let w = |i: usize| u32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
         probes.push([0, 1, 2].map(|a| w(4 * a) % dims[a].saturating_add(9)));
     }
-    for v in probes {
+    for &v in &probes {
         let _ = file.value(v);
         let _ = file.value_at(file.grid().voxel_center(v));
     }
@@ -56,10 +58,23 @@ fn probe(data: &[u8]) {
     for key in [0, 1, bricks / 2, bricks.saturating_sub(1), bricks, u64::MAX] {
         let _ = file.brick(key);
     }
-    if let Ok(report) = file.verify() {
+    let verified = file.verify();
+    if let Ok(report) = &verified {
         assert_eq!(report.counts, h.counts, "verify passed with counts unlike the header's");
     }
     let _ = file.to_voxmap();
+    // Through the cache, as the contact query reads it: its stored-brick and inside-tile bits
+    // are built from the index and runs, whatever they hold. A file that verifies reads the
+    // same values either way.
+    let direct: Vec<_> = probes.iter().map(|&v| file.value(v).ok()).collect();
+    let cached = CachedVoxmap::new(file);
+    let mut cur = cached.cursor();
+    for (v, direct) in probes.iter().zip(direct) {
+        let through_cache = cur.value(v.map(i64::from)).ok();
+        if verified.is_ok() {
+            assert_eq!(through_cache, direct, "voxel {v:?}");
+        }
+    }
 }
 
 /// Recompute, wherever the header's offsets allow, each brick's CRC, the index and run
