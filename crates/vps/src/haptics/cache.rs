@@ -46,7 +46,8 @@ pub struct CacheStats {
     pub misses: u64,
     /// Keys found in the shared map (after a cursor's own table missed).
     pub hits: u64,
-    /// Brick switches answered by a cursor's own table (counted when the cursor is dropped).
+    /// Brick switches answered without the shared map: by a cursor's own table, or for a tile
+    /// by the stored-brick bit sets (counted when the cursor is dropped).
     pub cursor_hits: u64,
     /// Keys held now.
     pub entries: u64,
@@ -90,8 +91,9 @@ pub struct CachedVoxmap {
     /// Cursor tables not in use. A cursor takes one and gives it back, so the bricks a haptic
     /// loop touches stay in its table from one query to the next.
     tables: Mutex<Vec<Box<Table>>>,
-    /// Which bricks are stored, at every scale (`None` for a grid too large, or a file whose
-    /// index cannot be read: the queries then cull by the layers alone).
+    /// Which bricks are stored, at every scale, and which are inside tiles (`None` for a grid
+    /// too large, or a file whose index or runs cannot be read: the queries then cull by the
+    /// layers alone, and tiles are looked up in the file).
     occupancy: Option<Occupancy>,
 }
 
@@ -194,7 +196,7 @@ impl CachedVoxmap {
             tables: Mutex::new(Vec::new()),
             occupancy: None,
         };
-        cached.occupancy = cached.stored_bricks();
+        cached.occupancy = cached.brick_bits();
         cached
     }
 
@@ -306,11 +308,16 @@ impl CachedVoxmap {
     }
 
     /// Which bricks are stored and which are inside tiles (see the `occupancy` field).
-    fn stored_bricks(&self) -> Option<Occupancy> {
+    fn brick_bits(&self) -> Option<Occupancy> {
         let grid = *self.grid();
         let mut stored = Vec::new();
-        self.for_each_stored_key(|key| stored.push(grid.brick_coords(key)))
-            .ok()?;
+        // A key beyond the grid (a damaged index that opens) is no brick a cursor asks for.
+        self.for_each_stored_key(|key| {
+            if key < grid.brick_count() {
+                stored.push(grid.brick_coords(key))
+            }
+        })
+        .ok()?;
         let inside: Vec<std::ops::Range<u64>> = match &self.source {
             Source::File(f) => f.inside_runs().ok()?.iter().map(|r| r.start..r.end).collect(),
             Source::Memory(v) => v.inside_runs().iter().map(|r| r.start..r.end).collect(),
@@ -546,15 +553,20 @@ impl<'a> Cursor<'a> {
         let key = self.key(b);
         let at = table_entry(b);
         self.switches += 1;
-        let Some(table) = &mut self.table else { return };
-        if table.keys[at] != key {
-            self.shared += 1;
+        let Some(held) = self.table.as_ref().map(|t| t.keys[at]) else {
+            return;
+        };
+        if held != key {
             // A tile from the bit sets: no lock, no search of the file's index (150–350 ns a
             // tile, measured on the stand-ins of the built-in plunge).
-            let slot = match self.occupancy.and_then(|o| o.tile(b.map(u64::from))) {
+            let slot = match self.tile(b) {
                 Some(inside) => Ok(Slot::Tile(if inside { self.inside } else { self.outside })),
-                None => self.voxmap.slot(key),
+                None => {
+                    self.shared += 1;
+                    self.voxmap.slot(key)
+                }
             };
+            let Some(table) = self.table.as_mut() else { return };
             match slot {
                 Ok(slot) => {
                     table.slots[at] = slot;

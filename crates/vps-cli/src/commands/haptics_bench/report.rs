@@ -156,6 +156,7 @@ fn print_json(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
         "points_per_ms": fig.points_per_ms,
         "queries_in_contact": fig.queries_in_contact,
         "incomplete_queries": fig.incomplete_queries,
+        "queries_over_budget": a.budget_us.map(|b| over_budget(r.samples, b)),
         "max_force_error_bound": fig.max_force_error_bound,
         "max_force_jump": fig.max_force_jump,
         "seconds": fig.total_seconds,
@@ -238,7 +239,7 @@ fn print_table(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
     );
     print_figures("sphere tree", fig)?;
     if let Some(b) = a.budget_us {
-        let over = r.samples.iter().filter(|s| s.micros > b as f64).count();
+        let over = over_budget(r.samples, b);
         outln!(
             "  budget        {} queries ran out (approximated; max |ΔF| bound {:.3e}), {over} took longer than {b} µs",
             fig.incomplete_queries,
@@ -275,6 +276,11 @@ fn print_table(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
         outln!("peak RSS     {:.1} MiB", mib(rss));
     }
     Ok(())
+}
+
+/// How many queries took longer than `budget_us`.
+fn over_budget(samples: &[Sample], budget_us: u64) -> usize {
+    samples.iter().filter(|s| s.micros > budget_us as f64).count()
 }
 
 fn print_figures(what: &str, f: &Figures) -> Result<()> {

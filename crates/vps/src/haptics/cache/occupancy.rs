@@ -50,8 +50,8 @@ impl Level {
     }
 }
 
-/// Grids of more bricks than this get no occupancy (its finest level would pass 128 MiB), and
-/// are culled by the layers alone.
+/// Grids of more bricks than this get no occupancy (its finest level and the inside bits would
+/// pass 256 MiB), and are culled by the layers alone.
 pub(super) const MAX_BRICKS: u64 = 1 << 30;
 
 impl Occupancy {
@@ -85,8 +85,13 @@ impl Occupancy {
         }
         let bricks = dims.iter().product::<u64>();
         let mut bits = vec![0u64; bricks.div_ceil(64) as usize];
+        // Only what the runs before did not cover, so that overlapping runs (a damaged file
+        // that opens) cost no more than the grid's bricks.
+        let mut covered = 0;
         for run in inside {
-            set_range(&mut bits, run.start.min(bricks)..run.end.min(bricks));
+            let end = run.end.min(bricks);
+            set_range(&mut bits, run.start.max(covered)..end);
+            covered = covered.max(end);
         }
         Some(Occupancy { levels, inside: bits })
     }

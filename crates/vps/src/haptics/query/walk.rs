@@ -17,8 +17,8 @@ use crate::storage::StorageError;
 /// tests decode bricks).
 pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
 
-/// The time-critical walk checks the clock every this many nodes, and before every leaf's
-/// points.
+/// The time-critical walk checks the clock every this many nodes, and also before every
+/// leaf's points and every node whose brick is not in the cursor's table.
 const CLOCK_EVERY: usize = 16;
 
 /// Planning the time-critical walk: the time per node test and per point tested assumed before
@@ -274,13 +274,13 @@ impl Frame<'_> {
     /// as if all were as deep as its centre, pushing with the node's summed load
     /// ([`NodeLoad`]), plus a bound on the error (see `docs/HAPTICS.md`).
     ///
-    /// With distances, a node whose centre's brick is cold (in no cache: a stored brick to
-    /// decode, or a tile to look for in the file's index) reads no brick when its `parent` is
-    /// given and its centre lies in the grid: the parent's test read the parent's brick, so
-    /// the depth at the parent's centre is carried to the node's along the slope there, and
-    /// the bound is taken from the parent's centre and radius, which hold the node's points
-    /// too. Reading bricks after the deadline made the budgeted queries overrun
-    /// (`docs/PERFORMANCE.md`).
+    /// With distances, a node whose centre's brick is cold ([`Cursor::is_cold`]: a stored
+    /// brick to decode) reads no brick when its `parent` is given and the parent's centre lies
+    /// in the grid in a brick at hand (the parent's test read it): the depth at the parent's
+    /// centre is carried to the node's along the slope there, and `v_max` of the bound is
+    /// taken from the parent's centre and radius, which hold the node's points too (the
+    /// torque's lever stays the node's own). Reading bricks after the deadline made the
+    /// budgeted queries overrun (`docs/PERFORMANCE.md`).
     pub(super) fn approximate(
         &self,
         cur: &mut Cursor<'_>,
@@ -296,7 +296,7 @@ impl Frame<'_> {
             .filter(|_| self.reads_distances() && cur.contains(u))
             .filter(|_| cur.is_cold([u.x as u32, u.y as u32, u.z as u32]))
             .map(|p| (&self.nodes[p], self.place(self.nodes[p].center()).1))
-            .filter(|&(_, up)| cur.contains(up));
+            .filter(|&(_, up)| cur.contains(up) && !cur.is_cold([up.x as u32, up.y as u32, up.z as u32]));
         // The sphere the bound is taken over: the node's, or its parent's.
         let (radius, at) = from_parent.map_or((node.radius, u), |(p, up)| (p.radius, up));
         let looked_up = cur.in_grid(at);
