@@ -21,6 +21,10 @@ pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
 /// leaf's points and every node whose brick is not in the cursor's table.
 const CLOCK_EVERY: usize = 16;
 
+/// How often the time-critical walk plans one level at most: once before it starts, and again
+/// after each stretch it planned, with the pace measured meanwhile.
+const PLANS_PER_LEVEL: usize = 4;
+
 /// Planning the time-critical walk: the time per node test and per point tested assumed before
 /// any is measured, and the least assumed after (a level of a few nodes measures mostly the
 /// clock).
@@ -250,13 +254,14 @@ impl Frame<'_> {
         !cur.contains(u) || cur.in_table([u.x as u32, u.y as u32, u.z as u32])
     }
 
-    /// How many of `level`'s first nodes to refine with `left` seconds left. Refining a node
-    /// costs a node test, and then its points if it is a leaf, or the stand-ins of its two
-    /// children if the budget runs out below; leaving it costs its own stand-in (about a node
-    /// test). The most nodes whose refinement and the others' stand-ins fit in `left`.
-    fn refinable(&self, level: &[(usize, Option<usize>)], left: f64, pace: &Pace) -> usize {
+    /// How many of `level`'s first nodes to refine with `left` seconds left and the stand-ins
+    /// of `owed` nodes already due (children of nodes refined). Refining a node costs a node
+    /// test, and then its points if it is a leaf, or the stand-ins of its two children if the
+    /// budget runs out below; leaving it costs its own stand-in (about a node test). The most
+    /// nodes whose refinement and the others' stand-ins fit in `left`.
+    fn refinable(&self, level: &[(usize, Option<usize>)], owed: usize, left: f64, pace: &Pace) -> usize {
         let (node, point) = (pace.node(), pace.point());
-        let mut total = level.len() as f64 * node;
+        let mut total = (level.len() + owed) as f64 * node;
         for (at, &(i, _)) in level.iter().enumerate() {
             let n = &self.nodes[i];
             total += match n.children() {
@@ -368,7 +373,8 @@ impl Frame<'_> {
     ///
     /// Each level is planned before it starts ([`Frame::refinable`]): its first nodes are
     /// refined, as many as leave time to stand in for the rest and for the refined nodes'
-    /// children. In case the plan was wrong, the clock is also read every [`CLOCK_EVERY`]
+    /// children; the rest is planned again with the pace measured meanwhile, up to
+    /// [`PLANS_PER_LEVEL`] times. In case a plan was wrong, the clock is also read every [`CLOCK_EVERY`]
     /// nodes, before every leaf's points and before every node whose brick is not in the
     /// cursor's table (it may have to be decoded), and the level stops as soon as the time left
     /// no longer covers the stand-ins it would then owe.
@@ -379,43 +385,56 @@ impl Frame<'_> {
         let mut cur = self.voxmap.cursor();
         let mut pace = Pace::default();
         while !level.is_empty() {
-            let started = Instant::now();
-            let refine = self.refinable(&level, deadline.saturating_duration_since(started).as_secs_f64(), &pace);
-            let todo = &level[..refine];
-            let (mut point_seconds, mut points) = (0.0, 0);
-            let stand_in_seconds = pace.node();
+            // Planned again as the pace is measured: a level is where the leaves begin, whose
+            // points' pace was only guessed before it.
             let mut refined = 0;
-            for &(i, _) in todo {
-                let node = &self.nodes[i];
-                let leaf = node.children().is_none();
-                // Stop while the time left still covers the stand-ins owed if it stops here.
-                let owed = (level.len() - refined + next.len()) as f64 * stand_in_seconds;
-                if (refined % CLOCK_EVERY == 0 || leaf || !self.at_hand(&cur, node))
-                    && deadline.saturating_duration_since(Instant::now()).as_secs_f64() <= owed
-                {
+            for _ in 0..PLANS_PER_LEVEL {
+                let started = Instant::now();
+                let left = deadline.saturating_duration_since(started).as_secs_f64();
+                let plan = refined + self.refinable(&level[refined..], next.len(), left, &pace);
+                if plan == refined {
                     break;
                 }
-                refined += 1;
-                acc.nodes_tested += 1;
-                if self.is_outside(&mut cur, node)? {
-                    acc.nodes_culled += 1;
-                    continue;
-                }
-                match node.children() {
-                    Some([a, b]) => next.extend([(a, Some(i)), (b, Some(i))]),
-                    None => {
-                        let t = Instant::now();
-                        self.test_points(&mut cur, node.points(), acc);
-                        point_seconds += t.elapsed().as_secs_f64();
-                        points += node.point_count as u64;
+                let stand_in_seconds = pace.node();
+                let (mut point_seconds, mut points, mut tested) = (0.0, 0, 0);
+                let mut stopped = false;
+                for &(i, _) in &level[refined..plan] {
+                    let node = &self.nodes[i];
+                    let leaf = node.children().is_none();
+                    // Stop while the time left still covers the stand-ins owed if it stops here.
+                    let owed = (level.len() - refined + next.len()) as f64 * stand_in_seconds;
+                    if (tested % CLOCK_EVERY == 0 || leaf || !self.at_hand(&cur, node))
+                        && deadline.saturating_duration_since(Instant::now()).as_secs_f64() <= owed
+                    {
+                        stopped = true;
+                        break;
+                    }
+                    refined += 1;
+                    tested += 1;
+                    acc.nodes_tested += 1;
+                    if self.is_outside(&mut cur, node)? {
+                        acc.nodes_culled += 1;
+                        continue;
+                    }
+                    match node.children() {
+                        Some([a, b]) => next.extend([(a, Some(i)), (b, Some(i))]),
+                        None => {
+                            let t = Instant::now();
+                            self.test_points(&mut cur, node.points(), acc);
+                            point_seconds += t.elapsed().as_secs_f64();
+                            points += node.point_count as u64;
+                        }
                     }
                 }
-            }
-            if refined > 0 {
-                pace.node_seconds += started.elapsed().as_secs_f64() - point_seconds;
-                pace.nodes += refined;
-                pace.point_seconds += point_seconds;
-                pace.points += points;
+                if tested > 0 {
+                    pace.node_seconds += started.elapsed().as_secs_f64() - point_seconds;
+                    pace.nodes += tested;
+                    pace.point_seconds += point_seconds;
+                    pace.points += points;
+                }
+                if stopped {
+                    break;
+                }
             }
             for &(j, parent) in &level[refined..] {
                 self.approximate(&mut cur, j, parent, acc)?;
