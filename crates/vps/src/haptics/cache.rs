@@ -487,7 +487,7 @@ impl<'a> Cursor<'a> {
     pub(crate) fn is_cold(&self, v: [u32; 3]) -> bool {
         let b = split_voxel(v).0;
         let key = self.key(b);
-        !self.in_table(v)
+        !self.table_holds(b, key)
             && self.tile(b).is_none()
             && !self.voxmap.shards[shard_of(key)]
                 .read()
@@ -499,11 +499,14 @@ impl<'a> Cursor<'a> {
     /// it takes no lock. True without a table: the cursor then reads nothing.
     #[inline]
     pub(crate) fn in_table(&self, v: [u32; 3]) -> bool {
-        let Some(table) = &self.table else {
-            return true;
-        };
-        let (b, _) = split_voxel(v);
-        table.keys[table_entry(b)] == self.key(b)
+        let b = split_voxel(v).0;
+        self.table_holds(b, self.key(b))
+    }
+
+    /// Whether this cursor's table holds brick `b` of key `key` (true without a table).
+    #[inline]
+    fn table_holds(&self, b: [u32; 3], key: u64) -> bool {
+        self.table.as_ref().is_none_or(|t| t.keys[table_entry(b)] == key)
     }
 
     /// What brick `b` (in the grid) holds if the bit sets know it for a tile: `Some(true)`

@@ -260,7 +260,7 @@ mod tests {
             "{}",
             loads[0].weighted.force()
         );
-        // A loads set by hand that breaks the sums' bounds does not fit.
+        // A load set by hand that breaks the sums' bounds does not fit.
         let mut forged = loads[1].weighted;
         forged.weight = 1.5 * nodes[1].point_count as f32;
         assert!(loads[1].weighted.fits(&nodes[1]) && !forged.fits(&nodes[1]));

@@ -133,7 +133,6 @@ fn keep_ridge(f: [f64; 4], t: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-
     use super::{cell_anywhere, keep_ridge, NEIGHBOUR_STEPS};
     use crate::shapes::SplitMix;
     use crate::voxmap::DISTANCE_STEP;

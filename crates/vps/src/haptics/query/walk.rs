@@ -396,21 +396,19 @@ impl Frame<'_> {
                     break;
                 }
                 let stand_in_seconds = pace.node();
-                let (mut point_seconds, mut points, mut tested) = (0.0, 0, 0);
-                let mut stopped = false;
-                for &(i, _) in &level[refined..plan] {
+                let (mut point_seconds, mut points) = (0.0, 0);
+                let from = refined;
+                for &(i, _) in &level[from..plan] {
                     let node = &self.nodes[i];
                     let leaf = node.children().is_none();
                     // Stop while the time left still covers the stand-ins owed if it stops here.
                     let owed = (level.len() - refined + next.len()) as f64 * stand_in_seconds;
-                    if (tested % CLOCK_EVERY == 0 || leaf || !self.at_hand(&cur, node))
+                    if ((refined - from) % CLOCK_EVERY == 0 || leaf || !self.at_hand(&cur, node))
                         && deadline.saturating_duration_since(Instant::now()).as_secs_f64() <= owed
                     {
-                        stopped = true;
                         break;
                     }
                     refined += 1;
-                    tested += 1;
                     acc.nodes_tested += 1;
                     if self.is_outside(&mut cur, node)? {
                         acc.nodes_culled += 1;
@@ -426,13 +424,14 @@ impl Frame<'_> {
                         }
                     }
                 }
-                if tested > 0 {
+                if refined > from {
                     pace.node_seconds += started.elapsed().as_secs_f64() - point_seconds;
-                    pace.nodes += tested;
+                    pace.nodes += refined - from;
                     pace.point_seconds += point_seconds;
                     pace.points += points;
                 }
-                if stopped {
+                // The clock stopped this stretch short of its plan.
+                if refined < plan {
                     break;
                 }
             }
