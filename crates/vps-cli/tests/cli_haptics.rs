@@ -499,7 +499,7 @@ fn bench_slides_on_a_tilted_box() {
     assert_clean_failure(&o, "--tilts is for --tilted-box");
 }
 
-/// `vps voxelize --distance` writes a version 3 file, whose queries use the interpolated
+/// `vps voxelize --distance` writes a version 4 file, whose queries use the interpolated
 /// distance unless `--penetration layers` asks for the old formula; out of core
 /// (`--memory-limit`) it writes the same file.
 #[test]
@@ -524,7 +524,7 @@ fn voxelize_with_distances_writes_version_3_and_contact_uses_it() {
     ]));
     assert!(v["distances_seconds"].as_f64().unwrap() > 0.0, "{v}");
     let info = json(&vps(&["info", out_s, "--json"]));
-    assert_eq!(info["format_version"], 3, "{info}");
+    assert_eq!(info["format_version"], 4, "{info}");
     let query = |vxm: &str, penetration: &str| {
         let c = json(&vps(&[
             "contact",

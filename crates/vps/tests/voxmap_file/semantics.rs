@@ -60,15 +60,15 @@ pub(super) fn exercise(file: &VoxmapFile) {
     }
 }
 
-/// A voxmap with distances is written as version 3 and read back whole, distances included;
-/// one without stays version 1; a version 3 header naming codec 1 or 2 is refused.
+/// A voxmap with distances is written as version 4 and read back whole, distances included;
+/// one without stays version 1; a version 4 header naming codec 1, 2 or 3 is refused.
 #[test]
-fn version_3_carries_the_distances_and_version_1_stays() {
+fn version_4_carries_the_distances_and_version_1_stays() {
     let dir = tmp();
     let with = ball_with_distances(2, 9.0);
     let (path, bytes) = written(dir.path(), &with);
     let file = VoxmapFile::open(&path).unwrap();
-    assert_eq!(file.header().version, 3);
+    assert_eq!(file.header().version, 4);
     assert!(file.header().has_distances());
     assert_same(&file, &with);
     assert_eq!(file.to_voxmap().unwrap(), with);
@@ -92,7 +92,7 @@ fn version_3_carries_the_distances_and_version_1_stays() {
     assert!(!vps::CachedVoxmap::open(&path1).unwrap().has_distances());
     assert!(bytes.len() > bytes1.len());
 
-    for codec in [1, 2] {
+    for codec in [1, 2, 3] {
         let mut h = header_of(&bytes);
         h.codec = codec;
         h.header_crc = h.compute_crc();
@@ -102,7 +102,7 @@ fn version_3_carries_the_distances_and_version_1_stays() {
         assert!(matches!(e, StorageError::InvalidHeader { field: "codec", .. }), "{e}");
     }
 
-    // A writer refuses distances out of range, and bricks without distances in version 3.
+    // A writer refuses distances out of range, and bricks without distances in version 4.
     let mut w = VoxmapWriter::create(dir.path().join("b.vxm"), *with.grid(), 2).unwrap();
     w.with_distances().unwrap();
     assert!(w.push_bricks(with.bricks()).is_err());
@@ -387,19 +387,24 @@ fn forged_header_base() -> &'static [u8] {
     })
 }
 
-/// The bytes of a version 2 file of `vm` whose payloads hold `distances` whole, as the builds
-/// before version 3 wrote them: the header and the run table of `v3`, the version 3 file of
-/// `vm`, around payloads of codec 2.
-fn version_2_of(v3: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances]) -> Vec<u8> {
-    use vps::storage::codec::{encode_brick_with_distances, new_compressor};
+/// The bytes of a file of `vm` in an older version with distances, 2 or 3, as the builds
+/// before version 4 wrote them: the header and the run table of `v4`, the version 4 file of
+/// `vm`, around payloads of codec 2 (`distances` whole) or 3 (those a contact reads).
+fn older_version_of(v4: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances], version: u32) -> Vec<u8> {
+    use vps::storage::codec::{encode_brick_with_distances, encode_brick_with_read_distances, new_compressor};
     use vps::storage::format::IndexEntry;
-    let mut h = header_of(v3);
-    let runs = v3[h.runs_offset as usize..].to_vec();
+    let encode = match version {
+        2 => encode_brick_with_distances,
+        3 => encode_brick_with_read_distances,
+        _ => panic!("version {version}"),
+    };
+    let mut h = header_of(v4);
+    let runs = v4[h.runs_offset as usize..].to_vec();
     let mut c = new_compressor().unwrap();
     let mut out = vec![0u8; HEADER_BYTES];
     let mut index = Vec::new();
     for (b, d) in vm.bricks().iter().zip(distances) {
-        let p = encode_brick_with_distances(&mut c, &b.values, d).unwrap();
+        let p = encode(&mut c, &b.values, d).unwrap();
         index.push(IndexEntry {
             key: b.key,
             offset: out.len() as u64,
@@ -417,7 +422,7 @@ fn version_2_of(v3: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances
     h.file_bytes = out.len() as u64;
     h.index_crc = crc32fast::hash(bytemuck::cast_slice(&index));
     h.runs_crc = crc32fast::hash(&runs);
-    (h.version, h.codec) = (2, 2);
+    (h.version, h.codec) = (version, version as u8);
     h.header_crc = h.compute_crc();
     out[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h));
     out
@@ -425,14 +430,14 @@ fn version_2_of(v3: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances
 
 /// A version 2 file, which stored every distance, still opens and verifies, and reads as the
 /// same voxmap in memory: the distances no contact reads replaced by the bounds of their
-/// layers, as version 3 gives them. Written again, it is a smaller version 3 file.
+/// layers, as versions 3 and 4 give them. Written again, it is a smaller version 4 file.
 #[test]
 fn a_version_2_file_reads_as_the_voxmap_in_memory() {
     let dir = tmp();
     let vm = ball_with_distances(3, 9.0);
-    let (_, v3) = written(dir.path(), &vm);
+    let (_, v4) = written(dir.path(), &vm);
     let exact = ball_distances(&vm, 9.0);
-    let v2 = version_2_of(&v3, &vm, &exact);
+    let v2 = older_version_of(&v4, &vm, &exact, 2);
     let file = VoxmapFile::from_bytes(&v2).unwrap();
     assert_eq!(file.header().version, 2);
     assert!(file.header().has_distances());
@@ -445,5 +450,21 @@ fn a_version_2_file_reads_as_the_voxmap_in_memory() {
         .map(|(e, d)| e.iter().zip(d).filter(|(e, d)| e != d).count())
         .sum::<usize>();
     assert!(replaced > 1_000, "{replaced} distances replaced");
-    assert!(v3.len() < v2.len(), "{} against {}", v3.len(), v2.len());
+    assert!(v4.len() < v2.len(), "{} against {}", v4.len(), v2.len());
+}
+
+/// A version 3 file, whose distances follow the previous voxel, still opens and verifies, and
+/// reads as the same voxmap in memory; its version 4 twin is smaller.
+#[test]
+fn a_version_3_file_reads_as_the_voxmap_in_memory() {
+    let dir = tmp();
+    let vm = ball_with_distances(3, 9.0);
+    let (_, v4) = written(dir.path(), &vm);
+    let v3 = older_version_of(&v4, &vm, vm.distances().unwrap(), 3);
+    let file = VoxmapFile::from_bytes(&v3).unwrap();
+    assert_eq!(file.header().version, 3);
+    assert!(file.header().has_distances());
+    file.verify().unwrap();
+    assert_eq!(file.to_voxmap().unwrap(), vm);
+    assert!(v4.len() < v3.len(), "{} against {}", v4.len(), v3.len());
 }

@@ -8,8 +8,10 @@ use crate::voxmap::{
 };
 
 use super::format::{
-    CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, MAX_PAYLOAD_BYTES, MAX_PAYLOAD_BYTES_DISTANCE,
+    CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DISTANCE, MAX_PAYLOAD_BYTES,
+    MAX_PAYLOAD_BYTES_DISTANCE, MAX_PAYLOAD_BYTES_MEDIAN,
 };
+use super::median;
 
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
 /// Nefertiti scan voxelized into a 3.4·10⁸-voxel grid (65,106 stored bricks), level 1 wrote
@@ -166,6 +168,25 @@ pub fn encode_brick_with_read_distances(
     payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_DISTANCE)
 }
 
+/// Bytes a codec-4 frame decompresses to at most: 512 value residuals and three bytes for each
+/// distance residual past an escape.
+const MEDIAN_FRAME_BYTES: usize = 4 * BRICK_VOXELS;
+
+/// Compress one brick with its distances into a codec-4 payload: the value residuals, then
+/// the residual stream of the distances of the voxels a contact reads ([`distance_is_read`])
+/// against the median predictor (`median.rs`). The others are neither stored nor predicted
+/// from, and decode to their [`outer_distance`], whatever `distances` holds for them.
+pub fn encode_brick_with_median_distances(
+    compressor: &mut zstd::bulk::Compressor<'_>,
+    values: &BrickValues,
+    distances: &BrickDistances,
+) -> std::io::Result<Vec<u8>> {
+    let mut raw = Vec::with_capacity(2 * BRICK_VOXELS);
+    raw.extend_from_slice(&predict(values));
+    median::encode(values, distances, &mut raw).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+    payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_MEDIAN)
+}
+
 /// A zstd compressor set up as the writer uses it.
 pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
     let mut c = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
@@ -234,7 +255,7 @@ fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, 
                 Some(state) => state,
                 empty => empty.insert(DecodeState {
                     zstd: zstd::bulk::Decompressor::new().map_err(|e| format!("zstd: {e}"))?,
-                    frame: Vec::with_capacity(MAX_PAYLOAD_BYTES_DISTANCE + 4),
+                    frame: Vec::with_capacity(MAX_PAYLOAD_BYTES_MEDIAN + 4),
                 }),
             };
             state.frame.clear();
@@ -285,7 +306,7 @@ pub fn decode_brick(payload: &[u8], layers: u8) -> Result<BrickValues, DecodeErr
 
 /// Decompress one payload of codec 2: the values, checked as [`decode_brick`] does, and the
 /// distances, each within ± the reach of `layers` (in steps); those that no contact reads
-/// replaced by their [`outer_distance`], as version 3 gives them.
+/// replaced by their [`outer_distance`], as versions 3 and 4 give them.
 pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; DISTANCE_FRAME_BYTES];
     decompress(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
@@ -343,6 +364,27 @@ pub fn decode_brick_with_read_distances(
     Ok((values, d))
 }
 
+/// Decompress one payload of codec 4: the values, checked as [`decode_brick`] does, and the
+/// distances, those of the voxels a contact reads from the residual stream (`median.rs`),
+/// each within ± the reach of `layers` (in steps), the others their [`outer_distance`].
+pub fn decode_brick_with_median_distances(
+    payload: &[u8],
+    layers: u8,
+) -> Result<(BrickValues, BrickDistances), DecodeError> {
+    let mut raw = [0u8; MEDIAN_FRAME_BYTES];
+    let n = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN)?;
+    if n < BRICK_VOXELS {
+        return Err(DecodeError::Malformed(format!(
+            "decompressed to {n} bytes, fewer than the {BRICK_VOXELS} values"
+        )));
+    }
+    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
+    let values = checked_values(residuals, layers)?;
+    let d = median::decode(&values, &raw[BRICK_VOXELS..n]).map_err(DecodeError::Malformed)?;
+    let d = checked_distances(&values, d, layers)?;
+    Ok((values, d))
+}
+
 /// `d`, the distances of a brick of `values`, if [`distance_fault`] finds none.
 fn checked_distances(values: &BrickValues, d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
     match distance_fault(values, &d, layers) {
@@ -371,13 +413,14 @@ pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u
     Some(format!("voxel {voxel} has distance {} steps, {why}", d[voxel]))
 }
 
-/// Decode a payload of `codec`: the values, and the distances for codecs 2 and 3.
+/// Decode a payload of `codec`: the values, and the distances for codecs 2, 3 and 4.
 pub fn decode_payload(
     payload: &[u8],
     layers: u8,
     codec: u8,
 ) -> Result<(BrickValues, Option<BrickDistances>), DecodeError> {
     match codec {
+        CODEC_ZSTD_MEDIAN_DISTANCE => decode_brick_with_median_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         CODEC_ZSTD_DELTA_READ_DISTANCE => decode_brick_with_read_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         CODEC_ZSTD_DELTA_DISTANCE => decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         _ => decode_brick(payload, layers).map(|v| (v, None)),
@@ -385,181 +428,4 @@ pub fn decode_payload(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::voxmap::DISTANCE_STEP;
-
-    #[test]
-    fn predictor_round_trips() {
-        let mut v = [0i8; BRICK_VOXELS];
-        for (i, x) in v.iter_mut().enumerate() {
-            *x = ((i * 37 % 255) as i32 - 127) as i8;
-        }
-        assert_eq!(unpredict::<i8>(bytemuck::cast_ref(&predict(&v))), v);
-    }
-
-    #[test]
-    fn codec_round_trips_and_rejects_junk() {
-        let mut c = new_compressor().unwrap();
-        let mut v = [-3i8; BRICK_VOXELS];
-        v[100] = 0;
-        v[511] = 3;
-        let p = encode_brick(&mut c, &v).unwrap();
-        assert!(p.len() < 64, "{}", p.len());
-        assert_eq!(decode_brick(&p, 2).unwrap(), v);
-        assert!(decode_brick(&p, 1).is_err());
-        assert!(decode_brick(&[], 2).is_err());
-        assert!(decode_brick(&p[..p.len() - 1], 2).is_err());
-        assert!(decode_brick(&[0u8; 2000], 2).is_err());
-    }
-
-    #[test]
-    fn the_bound_of_a_layer_is_half_a_voxel_inside_it() {
-        for v in i8::MIN..=-2 {
-            assert_eq!(outer_distance(v) as f64 * DISTANCE_STEP, v as f64 + 0.5, "value {v}");
-        }
-    }
-
-    #[test]
-    fn the_side_rule_reads_as_documented() {
-        for v in -8i8..=8 {
-            for d in -300i16..=300 {
-                // `docs/FORMAT.md`: positive for values ≥ 1, negative for −1, anything for 0
-                // and for the values whose distances no contact reads.
-                let documented = v <= -2 || v == 0 || (v >= 1 && d > 0) || (v == -1 && d < 0);
-                assert_eq!(distance_on_its_side(v, d), documented, "value {v}, distance {d}");
-            }
-        }
-    }
-
-    #[test]
-    fn zigzag_round_trips_every_residual() {
-        for r in i16::MIN..=i16::MAX {
-            assert_eq!(unzigzag(zigzag(r)), r);
-        }
-        assert_eq!([0, -1, 1, -2].map(zigzag), [0, 1, 2, 3]);
-    }
-
-    #[test]
-    fn distance_codec_round_trips_and_rejects_junk() {
-        let mut c = new_compressor().unwrap();
-        let mut v = [-3i8; BRICK_VOXELS];
-        v[100] = 0;
-        // A plane's distances in voxels, rounded to the step, clamped at -3.5 (the reach of 3
-        // layers); one voxel 2.7 voxels away, within the reach of 3 layers, not of 2 (2.5).
-        let steps = |voxels: f64| (voxels / DISTANCE_STEP).round() as i16;
-        let mut d = [0i16; BRICK_VOXELS];
-        for (i, x) in d.iter_mut().enumerate() {
-            let along = 0.37 * (i & 7) as f64 + 0.21 * ((i >> 3) & 7) as f64 - 0.13 * (i >> 6) as f64;
-            *x = steps((along - 2.0).max(-3.5));
-        }
-        d[5] = steps(2.7);
-        v[5] = 3;
-        let p = encode_brick_with_distances(&mut c, &v, &d).unwrap();
-        assert!(p.len() < 300, "{}", p.len());
-        // Read back with the bounds of the voxels no contact reads, as a voxmap holds them.
-        let mut bounded = d;
-        bound_outer_distances(&v, &mut bounded);
-        assert_ne!(bounded, d);
-        assert_eq!((bounded[5], bounded[100], bounded[0]), (d[5], d[100], steps(-2.5)));
-        assert_eq!(decode_brick_with_distances(&p, 3).unwrap(), (v, bounded));
-        assert_eq!(
-            decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE).unwrap(),
-            (v, Some(bounded))
-        );
-        // With 2 layers the values of -3 are in range, the distance of 2.7 voxels is not.
-        assert!(matches!(decode_brick_with_distances(&p, 2), Err(DecodeError::Malformed(m)) if m.contains("distance")));
-        assert!(matches!(
-            decode_brick_with_distances(&p, 1),
-            Err(DecodeError::ValueOutOfRange { .. })
-        ));
-        assert!(decode_brick(&p, 3).is_err());
-        assert!(decode_brick_with_distances(&p[..p.len() - 1], 3).is_err());
-        assert!(decode_brick_with_distances(&[0u8; 3000], 3).is_err());
-    }
-
-    /// Codec 3 stores the distances of the voxels at −1 and above only, decodes the others to
-    /// their bounds, and refuses a frame whose length does not match its values.
-    #[test]
-    fn read_distance_codec_round_trips_and_rejects_junk() {
-        let mut c = new_compressor().unwrap();
-        let mut rng = crate::shapes::SplitMix(5);
-        for round in 0..200 {
-            // Random values of 3 layers (mostly far outside in the first rounds) and random
-            // distances within the reach, on their values' sides (any for the others).
-            let mut v = [0i8; BRICK_VOXELS];
-            let mut d = [0i16; BRICK_VOXELS];
-            for (v, d) in v.iter_mut().zip(d.iter_mut()) {
-                *v = if rng.below(200) < round {
-                    rng.below(9) as i8 - 4
-                } else {
-                    -4
-                };
-                let magnitude = rng.below(112) as i16 + 1;
-                *d = match *v {
-                    -1 => -magnitude,
-                    1.. => magnitude,
-                    _ => rng.below(225) as i16 - 112,
-                };
-            }
-            let p = encode_brick_with_read_distances(&mut c, &v, &d).unwrap();
-            let mut want = d;
-            bound_outer_distances(&v, &mut want);
-            assert_eq!(decode_brick_with_read_distances(&p, 3).unwrap(), (v, want));
-            assert_eq!(
-                decode_payload(&p, 3, CODEC_ZSTD_DELTA_READ_DISTANCE).unwrap(),
-                (v, Some(want))
-            );
-            // The distances of 3 layers reach 3.5 voxels (112 steps), not those of 2.
-            if d.iter().zip(&v).any(|(&d, &v)| distance_is_read(v) && d.abs() > 80) {
-                assert!(decode_brick_with_read_distances(&p, 2).is_err());
-            }
-            // A distance a contact reads on the wrong side of the surface is refused.
-            if let Some(i) = (0..BRICK_VOXELS).find(|&i| v[i] == 1 || v[i] == -1) {
-                let mut wrong = d;
-                wrong[i] = -wrong[i];
-                let p = encode_brick_with_read_distances(&mut c, &v, &wrong).unwrap();
-                let e = decode_brick_with_read_distances(&p, 3).unwrap_err();
-                assert!(
-                    matches!(&e, DecodeError::Malformed(m) if m.contains("wrong side")),
-                    "{e}"
-                );
-            }
-        }
-        // All far outside: nothing but the values is stored.
-        let v = [-4i8; BRICK_VOXELS];
-        let p = encode_brick_with_read_distances(&mut c, &v, &[7; BRICK_VOXELS]).unwrap();
-        assert!(p.len() < 32, "{}", p.len());
-        let (_, d) = decode_brick_with_read_distances(&p, 3).unwrap();
-        assert!(d.iter().all(|&d| d == -112), "{d:?}");
-        // A frame of other than 512 bytes and two for each voxel at −1 and above.
-        let mut one_more = predict(&v).to_vec();
-        one_more.extend([0, 0]);
-        for raw in [&one_more[..], &one_more[..BRICK_VOXELS - 1]] {
-            let p = payload_of(&mut c, raw, MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
-            assert!(matches!(
-                decode_brick_with_read_distances(&p, 3),
-                Err(DecodeError::Malformed(_))
-            ));
-        }
-        assert!(decode_brick_with_read_distances(&[0u8; 3000], 3).is_err());
-        assert!(decode_brick_with_read_distances(&[], 3).is_err());
-        // Exactly one frame, with its content size: not one followed by another, nor one
-        // without its size.
-        let p = payload_of(&mut c, &predict(&v), MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
-        assert!(decode_brick_with_read_distances(&p, 3).is_ok());
-        let mut two = p.clone();
-        two.extend_from_slice(&ZSTD_FRAME_MAGIC);
-        two.extend_from_slice(&p);
-        let mut without_size = zstd::bulk::Compressor::new(1).unwrap();
-        without_size.include_contentsize(false).unwrap();
-        let no_size = payload_of(&mut without_size, &predict(&v), MAX_PAYLOAD_BYTES_DISTANCE).unwrap();
-        for p in [two, no_size] {
-            let e = decode_brick_with_read_distances(&p, 3).unwrap_err();
-            assert!(
-                matches!(&e, DecodeError::Malformed(m) if m.contains("one zstd frame")),
-                "{e}"
-            );
-        }
-    }
-}
+mod tests;

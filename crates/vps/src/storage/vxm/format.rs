@@ -13,8 +13,13 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
 /// The newest format version, which this crate writes for a voxmap with signed distances:
-/// every payload holds the brick's values and the distances a contact can read (codec 3).
-pub const VERSION: u32 = 3;
+/// every payload holds the brick's values and the distances a contact can read, predicted by
+/// a median (codec 4).
+pub const VERSION: u32 = 4;
+
+/// The version of the files whose payloads hold the distances a contact can read after the
+/// previous-voxel predictor (codec 3), which this crate still reads.
+pub const VERSION_READ_DISTANCES: u32 = 3;
 
 /// The version of the first files with distances, which this crate still reads: every
 /// payload holds the brick's values and all its distances (codec 2).
@@ -50,10 +55,16 @@ pub const CODEC_ZSTD_DELTA_DISTANCE: u8 = 2;
 /// [`encode_brick_with_read_distances`](super::codec::encode_brick_with_read_distances)).
 pub const CODEC_ZSTD_DELTA_READ_DISTANCE: u8 = 3;
 
+/// Codec id of version 4: as [`CODEC_ZSTD_DELTA_READ_DISTANCE`], the distances predicted by
+/// the median of up to nine extrapolations and their residuals a byte each, or three (see
+/// [`encode_brick_with_median_distances`](super::codec::encode_brick_with_median_distances)).
+pub const CODEC_ZSTD_MEDIAN_DISTANCE: u8 = 4;
+
 /// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
 pub fn codec_of(version: u32) -> u8 {
     match version {
-        VERSION => CODEC_ZSTD_DELTA_READ_DISTANCE,
+        VERSION => CODEC_ZSTD_MEDIAN_DISTANCE,
+        VERSION_READ_DISTANCES => CODEC_ZSTD_DELTA_READ_DISTANCE,
         VERSION_ALL_DISTANCES => CODEC_ZSTD_DELTA_DISTANCE,
         _ => CODEC_ZSTD_DELTA,
     }
@@ -61,7 +72,7 @@ pub fn codec_of(version: u32) -> u8 {
 
 /// Whether files of `version` carry distances.
 pub fn has_distances(version: u32) -> bool {
-    version == VERSION || version == VERSION_ALL_DISTANCES
+    matches!(version, VERSION | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES)
 }
 
 /// Largest payload a valid file can hold. zstd's worst case for 512 bytes is 577, so
@@ -72,12 +83,16 @@ pub const MAX_PAYLOAD_BYTES: usize = 1024;
 /// case is under 1,600).
 pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
 
+/// Largest payload of codec 4, whose frames hold at most 2,048 bytes (512 values and 512
+/// escaped residuals of three bytes; zstd's worst case is under 2,100).
+pub const MAX_PAYLOAD_BYTES_MEDIAN: usize = 2560;
+
 /// The payload limit of `codec`.
 pub fn max_payload_bytes(codec: u8) -> usize {
-    if codec == CODEC_ZSTD_DELTA {
-        MAX_PAYLOAD_BYTES
-    } else {
-        MAX_PAYLOAD_BYTES_DISTANCE
+    match codec {
+        CODEC_ZSTD_DELTA => MAX_PAYLOAD_BYTES,
+        CODEC_ZSTD_MEDIAN_DISTANCE => MAX_PAYLOAD_BYTES_MEDIAN,
+        _ => MAX_PAYLOAD_BYTES_DISTANCE,
     }
 }
 

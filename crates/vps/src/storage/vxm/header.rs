@@ -148,7 +148,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         .and_then(|b| b.try_into().ok())
         .map(u32::from_le_bytes)
         .ok_or_else(|| truncated(HEADER_BYTES as u64))?;
-    if version != VERSION && version != VERSION_ALL_DISTANCES && version != VERSION_LAYERS {
+    if !has_distances(version) && version != VERSION_LAYERS {
         return Err(StorageError::UnsupportedVersion {
             kind: ".vxm voxmap",
             path: path.to_path_buf(),

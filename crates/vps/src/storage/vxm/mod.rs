@@ -14,6 +14,7 @@
 pub mod codec;
 pub mod format;
 mod header;
+mod median;
 mod reader;
 pub mod slice;
 mod writer;
@@ -35,11 +36,11 @@ use crate::voxmap::{
     VoxmapCounts, MAX_LAYERS,
 };
 use codec::{
-    decode_payload, distance_fault, encode_brick, encode_brick_with_read_distances, new_compressor, DecodeError,
+    decode_payload, distance_fault, encode_brick, encode_brick_with_median_distances, new_compressor, DecodeError,
 };
 use format::{
     align8, codec_of, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
-    INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION, VERSION_ALL_DISTANCES, VERSION_LAYERS, VERSION_OFFSET,
+    INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
 pub(crate) use reader::Backing;

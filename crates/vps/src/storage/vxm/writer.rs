@@ -99,7 +99,7 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
-    /// Whether bricks come with distances: version 3 (see [`VoxmapWriter::with_distances`]).
+    /// Whether bricks come with distances: version 4 (see [`VoxmapWriter::with_distances`]).
     pub(super) distances: bool,
 }
 
@@ -167,7 +167,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Write a version 3 file, whose bricks carry signed distances: bricks must then come
+    /// Write a version 4 file, whose bricks carry signed distances: bricks must then come
     /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
     pub fn with_distances(&mut self) -> Result<(), StorageError> {
         if self.index.len() > 0 {
@@ -284,7 +284,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// A version 3 file takes its bricks with their distances only.
+    /// A version 4 file takes its bricks with their distances only.
     fn check_layers_only(&self) -> Result<(), StorageError> {
         if self.distances {
             return Err(self.invalid("this file's bricks carry distances: use push_bricks_with_distances".into()));
@@ -292,7 +292,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Append many bricks and their signed distances (one array per brick) to a version 3
+    /// Append many bricks and their signed distances (one array per brick) to a version 4
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
     /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]), and
     /// on the side its value says where a contact reads it
@@ -329,7 +329,7 @@ impl VoxmapWriter {
                 .map_init(new_compressor, |c, (b, d)| {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     let (surface, inner) = tally(&b.values);
-                    Ok((encode_brick_with_read_distances(c, &b.values, d)?, surface, inner))
+                    Ok((encode_brick_with_median_distances(c, &b.values, d)?, surface, inner))
                 })
                 .collect();
             for (b, e) in batch.iter().zip(encoded) {
@@ -475,7 +475,7 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 3 when it
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 4 when it
 /// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;

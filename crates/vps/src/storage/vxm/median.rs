@@ -1,0 +1,416 @@
+//! The distance residuals of codec 4 (`docs/FORMAT.md`): each stored distance is predicted by
+//! the median of up to nine planar extrapolations from the distances decoded before it in its
+//! brick, and its residual is written in one byte, or three past an escape.
+//!
+//! Why a median: a distance field is planar away from the mesh's edges and its medial axis,
+//! so any three or two neighbours extrapolate it, but each extrapolation adds up the rounding
+//! of its neighbours (the 3D Lorenzo predictor seven of them), and one that reaches across a
+//! kink is far off. The median of several keeps the small rounding and drops the outliers: on
+//! the shared meshes the files are 1.24–1.49 times their version 1 files, against 1.33–1.71
+//! with the previous voxel (`docs/PERFORMANCE.md`).
+
+use crate::grid::BRICK_VOXELS;
+use crate::voxmap::{distance_is_read, outer_distance, BrickDistances, BrickValues};
+
+/// Edge of the padded field along x and y: two voxels before the brick (the second
+/// neighbours of a line), its eight, one after (the diagonal neighbours of the row below).
+const EDGE: usize = 11;
+/// Slices of the padded field along z: two before the brick and its eight.
+const SLICES: usize = 10;
+/// A voxel not available to predict with: beyond the brick, not stored (value −2 or less), or
+/// not decoded yet.
+const NONE: i32 = i32::MIN;
+/// Beyond any candidate: distances are under 2¹⁵ in magnitude, so candidates under 2¹⁷.
+const FAR: i32 = 1 << 20;
+/// The first byte of a residual that takes the two bytes after it.
+pub(super) const ESCAPE: u8 = u8::MAX;
+
+/// The distances known so far, padded so that every neighbour has an index ([`NONE`] where
+/// there is none).
+type Field = [i32; EDGE * EDGE * SLICES];
+
+/// Index in the field of brick voxel `i` (x fastest).
+#[inline(always)]
+const fn at(i: usize) -> usize {
+    let (x, y, z) = (i & 7, (i >> 3) & 7, i >> 6);
+    ((z + 2) * EDGE + y + 2) * EDGE + x + 2
+}
+
+/// Steps back along x, y and z in the field.
+const X: usize = 1;
+const Y: usize = EDGE;
+const Z: usize = EDGE * EDGE;
+
+/// The predictions of row `row` of a brick of `values` (its voxels `8·row …`), `emit`ted
+/// voxel by voxel along x for the voxels a contact reads: `emit(i, prediction)` gives the
+/// distance to put in the field for voxel `i`, the true one when encoding, the prediction plus
+/// the residual when decoding. The rows below and the slices below must be in the field.
+///
+/// The prediction (`docs/FORMAT.md`, codec 4) is the median of the available ones of nine
+/// extrapolations, taken in this order (`a`, `b`, `c` the voxels before along x, y, z; `ab`
+/// before along x and y, and so on; `a₂` two before; `a⁺b` one ahead along x and one before
+/// along y):
+/// `A = a + b − ab`, `B = a + c − ac`, `C = b + c − bc`, `D = 2a − a₂`, `E = 2b − b₂`,
+/// `F = 2c − c₂`, `G = a⁺b + a − b`, `H = a⁺c + a − c`, `I = b⁺c + b − c`;
+/// available when every voxel they read is in the brick and stored. Padded to nine with the
+/// unavailable ones alternately far below and far above the others (the first below), the
+/// fifth smallest: the median of those available, the lower middle one of an even number.
+/// With none available: the first available of `a`, `b`, `c`, else `32·value`.
+///
+/// Computed fast: all but `a` is known before the row starts, so the candidates that add `a`
+/// (`A`, `B`, `G`, `H`) are sorted as slopes and the others (`C`, `E`, `F`, `I`) as values,
+/// eight voxels at a time; along the row, the fifth of nine is then the clamp of `D` between
+/// the fourth and fifth of the two sorted fours merged, about 25 operations a voxel. A median
+/// network voxel by voxel decoded at 0.6 of this speed (`docs/PERFORMANCE.md`).
+#[inline(always)]
+fn predict_row(f: &mut Field, row: usize, values: &BrickValues, mut emit: impl FnMut(usize, i32) -> i32) {
+    let first = row * 8;
+    let base = at(first);
+    let stored: [bool; 8] = std::array::from_fn(|x| distance_is_read(values[first + x]));
+    if !stored.contains(&true) {
+        return;
+    }
+    let c = row_candidates(f, base, &stored);
+    // The last two voxels of the row put in the field, kept at hand: `a` and `a₂`.
+    let (mut a1, mut a2) = (NONE, NONE);
+    for x in 0..8 {
+        if !stored[x] {
+            (a1, a2) = (NONE, a1);
+            continue;
+        }
+        let a = if a1 != NONE { a1 } else { 0 };
+        // The fourth and fifth smallest of the eight: the two sorted fours, one reversed,
+        // split into the four smallest (the minima) and the four largest (the maxima).
+        let (mut fourth, mut fifth) = (i32::MIN, i32::MAX);
+        for j in 0..4 {
+            let (p, q) = (c.slopes[j][x] + a, c.others[3 - j][x]);
+            fourth = fourth.max(p.min(q));
+            fifth = fifth.min(p.max(q));
+        }
+        let d = if c.d_pad[x] == 0 { 2 * a - a2 } else { c.d_pad[x] };
+        let mut m = d.max(fourth).min(fifth);
+        if m < -FAR / 2 {
+            m = [a1, f[base + x - Y], f[base + x - Z]]
+                .into_iter()
+                .find(|&v| v != NONE)
+                .unwrap_or(32 * i32::from(values[first + x]));
+        }
+        let v = emit(first + x, m);
+        f[base + x] = v;
+        (a1, a2) = (v, a1);
+    }
+}
+
+/// What [`predict_row`] knows of a row before it starts: for each voxel, the candidates that
+/// add `a` less `a` (`A`, `B`, `G`, `H`) and the others but `D` (`C`, `E`, `F`, `I`), each four
+/// sorted, unavailable ones padded; and `D`'s pad, 0 when `D` is available.
+struct RowCandidates {
+    slopes: [[i32; 8]; 4],
+    others: [[i32; 8]; 4],
+    d_pad: [i32; 8],
+}
+
+/// [`RowCandidates`] of the row whose first voxel is at `base` in the field, its voxels
+/// `stored` or not: lane by lane over the row's eight voxels, in loops the compiler
+/// vectorizes.
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+fn row_candidates(f: &Field, base: usize, stored: &[bool; 8]) -> RowCandidates {
+    macro_rules! load {
+        ($back:expr, $ahead:expr) => {{
+            let from = base + $ahead - $back;
+            let row: [i32; 8] = f[from..from + 8].try_into().expect("8 voxels");
+            row
+        }};
+    }
+    // `b`, `c`: the voxels before along y and z; `b2`, `c2` two before; `ab`: before along x
+    // and y, and so on; `xb`: one ahead along x and one before along y, `xc` ahead along x and
+    // before along z, `yc` ahead along y and before along z.
+    let (b, b2, c, c2) = (load!(Y, 0), load!(2 * Y, 0), load!(Z, 0), load!(2 * Z, 0));
+    let (ab, ac, bc) = (load!(X + Y, 0), load!(X + Z, 0), load!(Y + Z, 0));
+    let (xb, xc, yc) = (load!(Y, X), load!(Z, X), load!(Z, Y));
+    // Whether `a` and `a₂` will be known: stored voxels of this row before the voxel.
+    let mut has_a = [0i32; 8];
+    let mut has_a2 = [0i32; 8];
+    for x in 1..8 {
+        has_a[x] = stored[x - 1] as i32;
+    }
+    for x in 2..8 {
+        has_a2[x] = stored[x - 2] as i32;
+    }
+    let mut missing = [0i32; 8];
+    // Candidate `v` if every one of `parts` is known (`has` for `a`'s, which is not in the
+    // field yet), else the next pad, in the candidates' order. Macros, not closures: these
+    // were not inlined into the vectorized function.
+    macro_rules! next {
+        ($has:expr, [$p:expr, $q:expr, $r:expr], $v:expr) => {{
+            let (has, p, q, r, v) = ($has, $p, $q, $r, $v);
+            let mut out = [0i32; 8];
+            for x in 0..8 {
+                // In 32-bit lanes throughout: booleans made the compiler shuffle bytes.
+                let ok = has[x] & (p[x] != NONE) as i32 & (q[x] != NONE) as i32 & (r[x] != NONE) as i32;
+                let pad = -FAR + (missing[x] & 1) * 2 * FAR;
+                out[x] = if ok != 0 { v[x] } else { pad };
+                missing[x] += 1 - ok;
+            }
+            out
+        }};
+    }
+    // Eight lanes of an expression in `x`, as a plain loop.
+    macro_rules! lanes {
+        ($x:ident => $e:expr) => {{
+            let mut out = [0i32; 8];
+            for $x in 0..8 {
+                out[$x] = $e;
+            }
+            out
+        }};
+    }
+    let one = [1i32; 8];
+    let cand_a = next!(&has_a, [&b, &ab, &b], lanes!(x => b[x].wrapping_sub(ab[x])));
+    let cand_b = next!(&has_a, [&c, &ac, &c], lanes!(x => c[x].wrapping_sub(ac[x])));
+    let cand_c = next!(
+        &one,
+        [&b, &c, &bc],
+        lanes!(x => b[x].wrapping_add(c[x]).wrapping_sub(bc[x]))
+    );
+    let (known, a2) = ([0i32; 8], has_a2.map(|h| if h != 0 { 0 } else { NONE }));
+    let cand_d = next!(&has_a, [&a2, &known, &known], [0; 8]);
+    let cand_e = next!(
+        &one,
+        [&b, &b2, &b],
+        lanes!(x => b[x].wrapping_mul(2).wrapping_sub(b2[x]))
+    );
+    let cand_f = next!(
+        &one,
+        [&c, &c2, &c],
+        lanes!(x => c[x].wrapping_mul(2).wrapping_sub(c2[x]))
+    );
+    let cand_g = next!(&has_a, [&xb, &b, &xb], lanes!(x => xb[x].wrapping_sub(b[x])));
+    let cand_h = next!(&has_a, [&xc, &c, &xc], lanes!(x => xc[x].wrapping_sub(c[x])));
+    let cand_i = next!(
+        &one,
+        [&yc, &b, &c],
+        lanes!(x => yc[x].wrapping_add(b[x]).wrapping_sub(c[x]))
+    );
+    let mut out = RowCandidates {
+        slopes: [cand_a, cand_b, cand_g, cand_h],
+        others: [cand_c, cand_e, cand_f, cand_i],
+        d_pad: cand_d,
+    };
+    sort4(&mut out.slopes);
+    sort4(&mut out.others);
+    out
+}
+
+/// Sort four values lane by lane (5 exchanges).
+#[inline(always)]
+fn sort4(v: &mut [[i32; 8]; 4]) {
+    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+        let (low, high) = v.split_at_mut(b);
+        for (p, q) in low[a].iter_mut().zip(&mut high[0]) {
+            (*p, *q) = ((*p).min(*q), (*p).max(*q));
+        }
+    }
+}
+
+/// Zigzag: small magnitudes to small codes, 0, −1, 1, −2, … to 0, 1, 2, 3, ….
+fn zigzag(r: i32) -> u32 {
+    ((r << 1) ^ (r >> 31)) as u32
+}
+
+fn unzigzag(z: u32) -> i32 {
+    (z >> 1) as i32 ^ -((z & 1) as i32)
+}
+
+/// Append the residual stream of the distances `d` of a brick of `values` to `out`: one
+/// residual for each voxel a contact reads ([`distance_is_read`]), in index order. Fails for
+/// a residual beyond 16 bits, which distances within the reach never make.
+pub(super) fn encode(values: &BrickValues, d: &BrickDistances, out: &mut Vec<u8>) -> Result<(), String> {
+    let mut field = [NONE; EDGE * EDGE * SLICES];
+    let mut fault = None;
+    for row in 0..BRICK_VOXELS / 8 {
+        predict_row(&mut field, row, values, |i, p| {
+            let z = zigzag(i32::from(d[i]) - p);
+            match u8::try_from(z) {
+                Ok(byte) if byte != ESCAPE => out.push(byte),
+                _ => match u16::try_from(z) {
+                    Ok(wide) => {
+                        out.push(ESCAPE);
+                        out.extend_from_slice(&wide.to_le_bytes());
+                    }
+                    Err(_) => {
+                        fault.get_or_insert(format!("voxel {i}: residual {z} beyond 16 bits"));
+                    }
+                },
+            }
+            i32::from(d[i])
+        });
+    }
+    fault.map_or(Ok(()), Err)
+}
+
+/// The distances of a brick of `values` from its residual stream `bytes`, which must hold
+/// exactly one residual for each voxel a contact reads; the others take their
+/// [`outer_distance`]. Distances beyond 16 bits are an error; the caller checks the reach.
+pub(super) fn decode(values: &BrickValues, bytes: &[u8]) -> Result<BrickDistances, String> {
+    let mut field = [NONE; EDGE * EDGE * SLICES];
+    let mut d: BrickDistances = std::array::from_fn(|i| outer_distance(values[i]));
+    let (mut next, mut fault) = (0, None);
+    for row in 0..BRICK_VOXELS / 8 {
+        predict_row(&mut field, row, values, |i, p| {
+            // The stream read as the predictions need it: a pass of its own first cost more,
+            // in mispredicted branches on which voxels are stored.
+            let z = match bytes.get(next) {
+                Some(&ESCAPE) => match bytes.get(next + 1..next + 3) {
+                    Some(wide) => {
+                        next += 3;
+                        u32::from(u16::from_le_bytes([wide[0], wide[1]]))
+                    }
+                    None => {
+                        fault.get_or_insert(format!("voxel {i}: the residuals end inside an escape"));
+                        0
+                    }
+                },
+                Some(&byte) => {
+                    next += 1;
+                    u32::from(byte)
+                }
+                None => {
+                    fault.get_or_insert(format!("voxel {i}: the residuals end before the stored distances do"));
+                    0
+                }
+            };
+            let v = p + unzigzag(z);
+            d[i] = v as i16;
+            if i32::from(d[i]) != v {
+                fault.get_or_insert(format!("voxel {i}: distance {v} beyond 16 bits"));
+            }
+            // Kept in 16 bits, so that a damaged stream cannot overflow the next predictions.
+            i32::from(d[i])
+        });
+    }
+    if let Some(fault) = fault {
+        return Err(fault);
+    }
+    if next != bytes.len() {
+        return Err(format!(
+            "{} bytes of residuals left over after the stored distances",
+            bytes.len() - next
+        ));
+    }
+    Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::SplitMix;
+
+    /// The prediction of voxel `i` as `docs/FORMAT.md` defines it, by sorting the candidates,
+    /// from a field that holds (at least) every voxel before it.
+    fn reference_prediction(f: &Field, i: usize, value: i8) -> i32 {
+        let c = at(i);
+        let has = |p: usize| f[p] != NONE;
+        let plane = |p: usize, q: usize, r: usize| (has(p) && has(q) && has(r)).then(|| f[p] + f[q] - f[r]);
+        let line = |p: usize, q: usize| (has(p) && has(q)).then(|| 2 * f[p] - f[q]);
+        let candidates = [
+            plane(c - X, c - Y, c - X - Y),
+            plane(c - X, c - Z, c - X - Z),
+            plane(c - Y, c - Z, c - Y - Z),
+            line(c - X, c - 2 * X),
+            line(c - Y, c - 2 * Y),
+            line(c - Z, c - 2 * Z),
+            plane(c + X - Y, c - X, c - Y),
+            plane(c + X - Z, c - X, c - Z),
+            plane(c + Y - Z, c - Y, c - Z),
+        ];
+        let mut available: Vec<i32> = candidates.into_iter().flatten().collect();
+        available.sort();
+        match available.len() {
+            0 => [f[c - X], f[c - Y], f[c - Z]]
+                .into_iter()
+                .find(|&v| v != NONE)
+                .unwrap_or(32 * i32::from(value)),
+            k => available[(k - 1) / 2],
+        }
+    }
+
+    /// The row predictor against the definition, on random bricks with voxels not stored.
+    #[test]
+    fn the_row_predictor_is_the_median_of_the_candidates() {
+        let mut rng = SplitMix(3);
+        for _ in 0..300 {
+            let values: BrickValues = std::array::from_fn(|_| (rng.next_u64() % 7) as i8 - 3);
+            let d: BrickDistances = std::array::from_fn(|_| (rng.next_u64() % 2001) as i16 - 1000);
+            let mut full = [NONE; EDGE * EDGE * SLICES];
+            for i in (0..BRICK_VOXELS).filter(|&i| distance_is_read(values[i])) {
+                full[at(i)] = i32::from(d[i]);
+            }
+            let mut field = [NONE; EDGE * EDGE * SLICES];
+            for row in 0..BRICK_VOXELS / 8 {
+                predict_row(&mut field, row, &values, |i, p| {
+                    assert_eq!(p, reference_prediction(&full, i, values[i]), "voxel {i}");
+                    i32::from(d[i])
+                });
+            }
+        }
+    }
+
+    #[test]
+    fn zigzag_round_trips() {
+        for r in -40_000..40_000 {
+            assert_eq!(unzigzag(zigzag(r)), r);
+        }
+        assert_eq!([0, -1, 1, -2].map(zigzag), [0, 1, 2, 3]);
+    }
+
+    /// Random values (some not stored) and distances, smooth ones and wild ones (escapes).
+    #[test]
+    fn residuals_round_trip_and_reject_junk() {
+        let mut rng = SplitMix(5);
+        for round in 0..200 {
+            let values: BrickValues = std::array::from_fn(|_| (rng.next_u64() % 9) as i8 - 4);
+            let wild = round % 2 == 0;
+            let d: BrickDistances = std::array::from_fn(|i| {
+                if wild {
+                    (rng.next_u64() % 8001) as i16 - 4000
+                } else {
+                    ((i & 7) * 30 + (i >> 3 & 7) * 7) as i16 - 100 + (rng.next_u64() % 3) as i16
+                }
+            });
+            let mut bytes = Vec::new();
+            encode(&values, &d, &mut bytes).unwrap();
+            let got = decode(&values, &bytes).unwrap();
+            for i in 0..BRICK_VOXELS {
+                let want = if distance_is_read(values[i]) {
+                    d[i]
+                } else {
+                    outer_distance(values[i])
+                };
+                assert_eq!(got[i], want, "voxel {i}, round {round}");
+            }
+            let stored = values.iter().filter(|&&v| distance_is_read(v)).count();
+            // Smooth distances cost a byte a stored voxel; wild ones escape.
+            assert!(wild || bytes.len() < stored + 60, "{} bytes for {stored}", bytes.len());
+            assert!(!wild || bytes.len() > stored);
+            let mut longer = bytes.clone();
+            longer.push(0);
+            assert!(decode(&values, &longer).is_err());
+            if !bytes.is_empty() {
+                assert!(decode(&values, &bytes[..bytes.len() - 1]).is_err());
+            }
+        }
+    }
+
+    /// A plane of distances is predicted exactly wherever two neighbours along a line, or three
+    /// of a square, are decoded: all but the first voxel and the three next to it cost 0.
+    #[test]
+    fn a_plane_costs_nothing_past_its_first_voxels() {
+        let values = [1i8; BRICK_VOXELS];
+        let d: BrickDistances = std::array::from_fn(|i| (3 * (i & 7) + 5 * (i >> 3 & 7) + 7 * (i >> 6)) as i16);
+        let mut bytes = Vec::new();
+        encode(&values, &d, &mut bytes).unwrap();
+        let costly: Vec<usize> = (0..BRICK_VOXELS).filter(|&i| bytes[i] != 0).collect();
+        assert_eq!(costly, [0, 1, 8, 64]);
+    }
+}
