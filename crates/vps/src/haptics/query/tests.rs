@@ -25,7 +25,7 @@ fn voxmap(layers: i32) -> CachedVoxmap {
 
 /// A box 12 wide and 6 thick whose top face is the plane z = 0: voxels of 0.25, 5 layers,
 /// with distances.
-fn thick_box() -> CachedVoxmap {
+pub(super) fn thick_box() -> CachedVoxmap {
     let mesh = Mesh::from_triangles("static", cuboid(DVec3::splat(-6.0), DVec3::new(6.0, 6.0, 0.0))).unwrap();
     let (vm, _) = voxelize(&mesh, &VoxelizeParams::new(0.25, 5)).unwrap();
     let distances = signed_distances(&mesh, &vm);
@@ -33,7 +33,7 @@ fn thick_box() -> CachedVoxmap {
 }
 
 /// The pointshell of a ball of `radius` about the origin, sampled at `voxel`.
-fn ball_shell(radius: f64, stacks: u32, voxel: f64) -> Pointshell {
+pub(super) fn ball_shell(radius: f64, stacks: u32, voxel: f64) -> Pointshell {
     let moving = Mesh::from_triangles("moving", sphere(DVec3::ZERO, radius, stacks, 2 * stacks)).unwrap();
     let (vm, _) = voxelize(&moving, &VoxelizeParams::new(voxel, 2)).unwrap();
     pointshell(&moving, &vm, LEAF_SIZE).unwrap().0

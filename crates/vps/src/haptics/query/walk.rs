@@ -444,3 +444,81 @@ impl Frame<'_> {
         cur.finish()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::haptics::query::tests::{ball_shell, thick_box};
+    use crate::haptics::query::ContactParams;
+    use crate::Pose;
+
+    /// The plan of a level against its definition: the most of the level's first nodes whose
+    /// refinement (a node test, then a leaf's points or two children's stand-ins) and the
+    /// others' stand-ins, with those already `owed`, fit in the time left.
+    #[test]
+    fn a_level_refines_the_most_nodes_that_fit() {
+        let voxmap = thick_box();
+        let shell = ball_shell(1.0, 12, 0.05);
+        let pose = Pose::new([0.0, 0.0, 0.5], [1.0, 0.0, 0.0, 0.0]).unwrap();
+        let frame = Frame::new(&voxmap, &shell, &pose, &ContactParams::default()).unwrap();
+        // A level that mixes leaves and inner nodes, alternately (the plan does not ask which
+        // depth its nodes are at).
+        let inner = (0..frame.nodes.len()).filter(|&i| !frame.nodes[i].is_leaf()).skip(30);
+        let leaves = (0..frame.nodes.len()).filter(|&i| frame.nodes[i].is_leaf());
+        let level: Vec<(usize, Option<usize>)> = inner
+            .zip(leaves)
+            .take(40)
+            .flat_map(|(a, b)| [(a, None), (b, None)])
+            .collect();
+        assert_eq!(level.len(), 80);
+        for pace in [
+            Pace {
+                node_seconds: 0.0,
+                nodes: 0,
+                point_seconds: 0.0,
+                points: 0,
+            },
+            Pace {
+                node_seconds: 3e-6,
+                nodes: 20,
+                point_seconds: 4e-6,
+                points: 1000,
+            },
+            Pace {
+                node_seconds: 1e-9,
+                nodes: 1000,
+                point_seconds: 1e-9,
+                points: 1000,
+            },
+        ] {
+            let (node, point) = (pace.node(), pace.point());
+            assert!(node >= MIN_NODE_SECONDS && point >= MIN_POINT_SECONDS);
+            for owed in [0, 3, 40] {
+                // What refining the first `k` costs, by its definition.
+                let cost = |k: usize| -> f64 {
+                    let refined: f64 = level[..k]
+                        .iter()
+                        .map(|&(i, _)| match frame.nodes[i].children() {
+                            Some(_) => node + 2.0 * node,
+                            None => node + frame.nodes[i].point_count as f64 * point,
+                        })
+                        .sum();
+                    refined + (level.len() - k + owed) as f64 * node
+                };
+                let mut last = 0;
+                for step in 0..200 {
+                    let left = cost(level.len()) * 1.2 * step as f64 / 200.0;
+                    let k = frame.refinable(&level, owed, left, &pace);
+                    // The most that fit, give or take the rounding of the sums.
+                    let most = |left: f64| (0..=level.len()).rev().find(|&k| cost(k) <= left).unwrap_or(0);
+                    let (low, high) = (most(left * (1.0 - 1e-9)), most(left * (1.0 + 1e-9)));
+                    assert!((low..=high).contains(&k), "left {left}: {k}, not in {low}..={high}");
+                    assert!(k >= last, "more time, fewer nodes: {k} after {last}");
+                    last = k;
+                }
+                assert_eq!(frame.refinable(&level, owed, f64::INFINITY, &pace), level.len());
+                assert_eq!(frame.refinable(&level, owed, 0.0, &pace), 0);
+            }
+        }
+    }
+}
