@@ -100,7 +100,7 @@ void vps_pointshell_close(vps_pointshell *pointshell);
  *   pose       7 doubles {tx, ty, tz, qw, qx, qy, qz}: pointshell frame -> voxmap world frame.
  *   stiffness  force per unit of penetration per point; finite and >= 0. The penetration is
  *              the interpolated signed distance when the voxmap file has distances (versions
- *              2 and 3, vps voxelize --distance), else the paper's layers (docs/HAPTICS.md).
+ *              2 to 4, vps voxelize --distance), else the paper's layers (docs/HAPTICS.md).
  *   budget_us  <= 0: the exact answer (deterministic: the same bits in every process and on
  *              any number of threads). > 0: time-critical; stop refining the sphere tree after
  *              this many microseconds, and report the error bounds (out->complete may be 0).

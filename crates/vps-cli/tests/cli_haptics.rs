@@ -503,7 +503,7 @@ fn bench_slides_on_a_tilted_box() {
 /// distance unless `--penetration layers` asks for the old formula; out of core
 /// (`--memory-limit`) it writes the same file.
 #[test]
-fn voxelize_with_distances_writes_version_3_and_contact_uses_it() {
+fn voxelize_with_distances_writes_version_4_and_contact_uses_it() {
     let f = fixture();
     let obj = f.dir.path().join("ball.obj");
     let ball = Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 10.0, 24, 48)).unwrap();

@@ -1,5 +1,6 @@
 //! The codec of a `.vxm` brick payload, byte for byte as in `docs/FORMAT.md`: the previous-voxel
-//! predictor, zigzagged distance residuals, and zstd frames without their magic number.
+//! predictor, zigzagged distance residuals (codec 4's, predicted by a median, in `median.rs`),
+//! and zstd frames without their magic number.
 
 use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{

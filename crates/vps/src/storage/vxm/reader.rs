@@ -24,7 +24,7 @@ pub struct Header {
 }
 
 impl Header {
-    /// Whether the file's bricks carry signed distances (versions 2 and 3).
+    /// Whether the file's bricks carry signed distances (versions 2, 3 and 4).
     pub fn has_distances(&self) -> bool {
         has_distances(self.version)
     }

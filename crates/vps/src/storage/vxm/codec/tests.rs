@@ -92,8 +92,8 @@ fn distance_codec_round_trips_and_rejects_junk() {
     assert!(decode_brick_with_distances(&[0u8; 3000], 3).is_err());
 }
 
-/// Codec 3 stores the distances of the voxels at −1 and above only, decodes the others to
-/// their bounds, and refuses a frame whose length does not match its values.
+/// Codecs 3 and 4 store the distances of the voxels at −1 and above only, decode the others to
+/// their bounds, and refuse a frame whose length does not match its values.
 #[test]
 fn read_distance_codecs_round_trip_and_reject_junk() {
     read_distance_codec_round_trips_and_rejects_junk(
