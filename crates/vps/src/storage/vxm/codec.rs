@@ -323,6 +323,25 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     Ok((values, d))
 }
 
+/// Decompress a payload of codec 3 or 4, whose frame holds the value residuals and then the
+/// distances' (of a length the codec checks), into `raw`: its values, checked as
+/// [`decode_brick`] does, and the frame's length.
+fn values_of_frame(
+    payload: &[u8],
+    raw: &mut [u8],
+    max: usize,
+    layers: u8,
+) -> Result<(BrickValues, usize), DecodeError> {
+    let n = decompress_into(payload, raw, max)?;
+    if n < BRICK_VOXELS {
+        return Err(DecodeError::Malformed(format!(
+            "decompressed to {n} bytes, fewer than the {BRICK_VOXELS} values"
+        )));
+    }
+    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
+    Ok((checked_values(residuals, layers)?, n))
+}
+
 /// Decompress one payload of codec 3: the values, checked as [`decode_brick`] does, and the
 /// distances, those of the voxels a contact reads from the payload, each within ± the reach of
 /// `layers` (in steps), the others their [`outer_distance`].
@@ -331,9 +350,7 @@ pub fn decode_brick_with_read_distances(
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; DISTANCE_FRAME_BYTES];
-    let n = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE)?;
-    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
-    let values = checked_values(residuals, layers)?;
+    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE, layers)?;
     // Summed in u16 lanes: `filter().count()` widens every lane to 64 bits.
     let read = values.iter().map(|&v| distance_is_read(v) as u16).sum::<u16>() as usize;
     if n != BRICK_VOXELS + 2 * read {
@@ -373,14 +390,7 @@ pub fn decode_brick_with_median_distances(
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; MEDIAN_FRAME_BYTES];
-    let n = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN)?;
-    if n < BRICK_VOXELS {
-        return Err(DecodeError::Malformed(format!(
-            "decompressed to {n} bytes, fewer than the {BRICK_VOXELS} values"
-        )));
-    }
-    let residuals: &[u8; BRICK_VOXELS] = raw[..BRICK_VOXELS].try_into().expect("512 bytes");
-    let values = checked_values(residuals, layers)?;
+    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, layers)?;
     let d = median::decode(&values, &raw[BRICK_VOXELS..n]).map_err(DecodeError::Malformed)?;
     let d = checked_distances(&values, d, layers)?;
     Ok((values, d))
