@@ -68,6 +68,28 @@ impl PyVoxmap {
         Ok(values.or_raise()?.into_pyarray(py))
     }
 
+    /// Signed distances (`float64`) at `points` `(N, 3)`, world units, positive inside, as a
+    /// contact reads them: trilinear over the eight voxel centres around each point, so at a
+    /// voxel centre its stored distance; beyond the grid minus the reach. Only for a voxmap
+    /// with distances (`voxelize(..., distances=True)`, `vps voxelize --distance`).
+    fn distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = rows("points", &points, 3)?;
+        let distances = py.detach(|| {
+            let points = p.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2]));
+            self.data.distances_at(points)
+        });
+        match distances.or_raise()? {
+            Some(d) => Ok(d.into_pyarray(py)),
+            None => Err(PyValueError::new_err(
+                "this voxmap has no distances: voxelize it with distances=True",
+            )),
+        }
+    }
+
     /// The slice normal to `axis` (0, 1, 2 or "x", "y", "z") through world coordinate `at`,
     /// or at voxel `index`, as an `int8` array `(height, width)`, row 0 at the top, as
     /// `vps slice` draws it: a z-slice has x across and y up, an x-slice y across and z up, a
@@ -124,6 +146,12 @@ impl PyVoxmap {
     #[getter]
     fn layers(&self) -> u8 {
         self.data.layers()
+    }
+
+    /// Whether each stored voxel carries its signed distance (see `distances`).
+    #[getter]
+    fn has_distances(&self) -> bool {
+        self.data.has_distances()
     }
 
     /// The `.vxm` file this voxmap was opened from, or `None` for one in memory.

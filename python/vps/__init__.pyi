@@ -59,6 +59,8 @@ class Voxmap:
     def open(path: _Path) -> Voxmap: ...
     def values(self, points: npt.ArrayLike) -> npt.NDArray[np.int8]:
         """Values of the voxels holding points (N, 3): < 0 outside, 0 surface, > 0 inside."""
+    def distances(self, points: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Signed distances at points (N, 3), positive inside, trilinear as a contact reads them."""
     def slice(
         self, axis: _Axis, at: Optional[float] = None, index: Optional[int] = None
     ) -> npt.NDArray[np.int8]:
@@ -73,6 +75,8 @@ class Voxmap:
     def dims(self) -> Tuple[int, int, int]: ...
     @property
     def layers(self) -> int: ...
+    @property
+    def has_distances(self) -> bool: ...
     @property
     def path(self) -> Optional[str]: ...
     @property

@@ -102,6 +102,43 @@ fn probe_prints_one_value_per_point() {
     assert!(stderr(&o).contains("line 1"), "{}", stderr(&o));
 }
 
+/// `--distance` prints the signed distance: the ball's radius less the depth at its points,
+/// to the mesh's chord error and the blend's; minus the reach beyond the grid; and an error
+/// for a file without distances.
+#[test]
+fn probe_prints_the_signed_distance_of_a_file_that_has_them() {
+    let f = fixture();
+    let with = f.vxm.with_file_name("distances.vxm");
+    let o = vps(&[
+        "voxelize",
+        p(&f.obj),
+        "--voxel-size",
+        "0.5",
+        "--layers",
+        "4",
+        "--distance",
+        "-o",
+        p(&with),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pts = f.vxm.with_extension("txt");
+    // Inside the ball 1 and 0.3 below its surface, on it, 0.7 outside, beyond the grid.
+    std::fs::write(&pts, "9 0 0\n0 9.7 0\n0 0 -10\n-10.7 0 0\n1e9 0 0\n").unwrap();
+    let o = vps(&["probe", p(&with), "--points", p(&pts), "--distance"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let d: Vec<f64> = stdout(&o).lines().map(|l| l.parse().unwrap()).collect();
+    // The sphere of 32 × 64 facets lies up to 10·(1 − cos(π/32)) = 0.05 inside the radius;
+    // blending across a curved surface adds a little more.
+    for (got, want) in d.iter().zip([1.0, 0.3, 0.0, -0.7]) {
+        assert!((got - want).abs() < 0.1, "{d:?}");
+    }
+    assert_eq!(d[4], -4.5 * 0.5, "minus the reach, (layers + ½) voxels");
+
+    let o = vps(&["probe", p(&f.vxm), "--points", p(&pts), "--distance"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("has no distances"), "{}", stderr(&o));
+}
+
 #[test]
 fn verify_passes_and_catches_corruption() {
     let f = fixture();

@@ -1,4 +1,5 @@
-//! `vps probe`: the value of the voxel containing each point read, one per line.
+//! `vps probe`: the value of the voxel containing each point read, or the signed distance
+//! there, one per line.
 
 use std::io::{BufRead, BufWriter, Write};
 use std::path::PathBuf;
@@ -6,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 use glam::DVec3;
+use vps::haptics::CachedVoxmap;
 
 use crate::inputs::open_voxmap;
 use crate::output;
@@ -18,12 +20,31 @@ pub struct ProbeArgs {
     /// Points file, or - for standard input.
     #[arg(long)]
     points: PathBuf,
+    /// Print the signed distance at each point instead (world units, positive inside; a file
+    /// voxelized with --distance), interpolated as a contact reads it.
+    #[arg(long)]
+    distance: bool,
 }
 
 /// Read "x y z" lines (spaces or commas; blank lines and # comments skipped) and print a
-/// value for each.
+/// value, or a distance, for each.
 pub fn run(a: ProbeArgs) -> Result<()> {
     let (f, points) = (open_voxmap(&a.file)?, &a.points);
+    let mut probe: Box<dyn FnMut(DVec3) -> Result<String>> = if a.distance {
+        anyhow::ensure!(
+            f.header().has_distances(),
+            "{} has no distances: make it with `vps voxelize --distance`",
+            a.file.display()
+        );
+        let voxmap = CachedVoxmap::new(f);
+        // One look-up a line, so that a point is answered as soon as it is read (a pipe).
+        Box::new(move |p| {
+            let d = voxmap.distances_at([p])?.and_then(|d| d.first().copied());
+            Ok(d.context("no distance read")?.to_string())
+        })
+    } else {
+        Box::new(move |p| Ok(f.value_at(p)?.to_string()))
+    };
     let reader: Box<dyn BufRead> = if points.as_os_str() == "-" {
         Box::new(std::io::stdin().lock())
     } else {
@@ -52,7 +73,7 @@ pub fn run(a: ProbeArgs) -> Result<()> {
                     n + 1
                 )
             })?;
-        let v = f.value_at(DVec3::new(c[0], c[1], c[2]))?;
+        let v = probe(DVec3::new(c[0], c[1], c[2]))?;
         writeln!(out, "{v}").map_err(output::stdout_failed)?;
     }
     out.flush().map_err(output::stdout_failed)?;

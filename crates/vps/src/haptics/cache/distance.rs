@@ -6,7 +6,8 @@ use std::ops::Range;
 
 use glam::DVec3;
 
-use super::{same, Cursor};
+use super::cursor::same;
+use super::Cursor;
 use crate::grid::{split_voxel, BRICK, BRICK_SHIFT};
 use crate::voxmap::{BrickDistances, BrickSlot, DISTANCE_STEP};
 

@@ -1,0 +1,235 @@
+"""A `.vxm` reader written from `docs/FORMAT.md` alone, in plain Python: a second reading of
+the spec, against which `test_format.py` checks the library's files and lookups.
+
+Slow and obvious on purpose (voxel by voxel, the median by sorting), and it does not import
+`vps`. It reads versions 1 to 4 and checks what the spec says a reader checks of a valid file:
+the magic, the layout, every CRC, the value range and the distances' range and sign.
+"""
+
+import struct
+import zlib
+from dataclasses import dataclass, field
+
+import zstandard
+
+MAGIC = bytes([0x56, 0x58, 0x4D, 0x00, 0x0D, 0x0A, 0x1A, 0x0A])
+ZSTD_MAGIC = bytes([0x28, 0xB5, 0x2F, 0xFD])
+HEADER_BYTES = 192
+VOXELS = 512
+# Which codec each version's payloads use: the version's number.
+CODECS = {1: 1, 2: 2, 3: 3, 4: 4}
+
+
+class SpecError(Exception):
+    """The file breaks a rule of docs/FORMAT.md."""
+
+
+@dataclass
+class VxmFile:
+    version: int
+    origin: tuple
+    voxel_size: float
+    dims: tuple
+    layers: int
+    counts: dict
+    # key -> (512 values, 512 distances in steps of 1/32 voxel, or None)
+    bricks: dict = field(default_factory=dict)
+    # (start, end) brick keys of the inside runs
+    runs: list = field(default_factory=list)
+
+    @property
+    def brick_dims(self):
+        return tuple(d // 8 for d in self.dims)
+
+    def key(self, b):
+        """Brick key of brick coordinates b = (bx, by, bz): z fastest."""
+        _, ny, nz = self.brick_dims
+        return (b[0] * ny + b[1]) * nz + b[2]
+
+    def voxel(self, v):
+        """(value, distance in steps or None) of voxel v = (x, y, z); tiles have no distance."""
+        b = tuple(c // 8 for c in v)
+        k = self.key(b)
+        local = (v[0] % 8) + 8 * (v[1] % 8) + 64 * (v[2] % 8)
+        if k in self.bricks:
+            values, distances = self.bricks[k]
+            return values[local], None if distances is None else distances[local]
+        inside = any(s <= k < e for s, e in self.runs)
+        return (self.layers + 1 if inside else -(self.layers + 1)), None
+
+
+def read(path):
+    """Read and check the whole file at `path`."""
+    data = open(path, "rb").read()
+    if data[:8] != MAGIC:
+        raise SpecError("bad magic")
+    u32 = lambda o: struct.unpack_from("<I", data, o)[0]  # noqa: E731
+    u64 = lambda o: struct.unpack_from("<Q", data, o)[0]  # noqa: E731
+    version = u32(8)
+    if version not in CODECS or u32(12) != HEADER_BYTES:
+        raise SpecError(f"version {version}, header of {u32(12)} bytes")
+    if zlib.crc32(data[:188]) != u32(188):
+        raise SpecError("header CRC")
+    origin = struct.unpack_from("<3d", data, 16)
+    voxel_size = struct.unpack_from("<d", data, 40)[0]
+    dims = struct.unpack_from("<3I", data, 48)
+    shift, edge, layers, codec = data[60], data[61], data[62], data[63]
+    if (shift, edge) != (3, 8) or codec != CODECS[version] or layers > 126:
+        raise SpecError(f"brick {shift}/{edge}, codec {codec}, layers {layers}")
+    names = ["surface_voxels", "inner_voxels", "bricks_stored", "inside_tile_bricks", "inside_runs",
+             "payload_offset", "payload_bytes", "index_offset", "runs_offset", "file_bytes"]
+    counts = {n: u64(64 + 8 * i) for i, n in enumerate(names)}
+    # The layout follows from the counts.
+    index_offset = (HEADER_BYTES + counts["payload_bytes"] + 7) // 8 * 8
+    runs_offset = index_offset + 24 * counts["bricks_stored"]
+    file_bytes = runs_offset + 16 * counts["inside_runs"]
+    want = (HEADER_BYTES, index_offset, runs_offset, file_bytes, len(data))
+    got = (counts["payload_offset"], counts["index_offset"], counts["runs_offset"], counts["file_bytes"], file_bytes)
+    if want != got:
+        raise SpecError(f"layout {got}, expected {want}")
+    if zlib.crc32(data[index_offset:runs_offset]) != u32(144) or zlib.crc32(data[runs_offset:]) != u32(148):
+        raise SpecError("index or run table CRC")
+    vxm = VxmFile(version, origin, voxel_size, dims, layers, counts)
+    nb = vxm.brick_dims
+    next_offset, last_key = HEADER_BYTES, -1
+    for i in range(counts["bricks_stored"]):
+        key, offset, length, crc = struct.unpack_from("<QQII", data, index_offset + 24 * i)
+        if key <= last_key or key >= nb[0] * nb[1] * nb[2] or offset != next_offset:
+            raise SpecError(f"index entry {i}: key {key}, offset {offset}")
+        payload = data[offset : offset + length]
+        if zlib.crc32(payload) != crc:
+            raise SpecError(f"brick {key}: payload CRC")
+        vxm.bricks[key] = decode_payload(payload, codec, layers)
+        next_offset, last_key = offset + length, key
+    if next_offset != HEADER_BYTES + counts["payload_bytes"]:
+        raise SpecError("payloads do not tile their section")
+    for i in range(counts["inside_runs"]):
+        start, end = struct.unpack_from("<QQ", data, runs_offset + 16 * i)
+        if not start < end <= nb[0] * nb[1] * nb[2] or (vxm.runs and start < vxm.runs[-1][1]):
+            raise SpecError(f"run {i}: {start}..{end}")
+        vxm.runs.append((start, end))
+    return vxm
+
+
+def coords(i):
+    return i % 8, (i // 8) % 8, i // 64
+
+
+def previous_along(i):
+    """The voxel before `i` in the predictor's order: along x, else y, else z; else None."""
+    x, y, z = coords(i)
+    return i - 1 if x > 0 else i - 8 if y > 0 else i - 64 if z > 0 else None
+
+
+def wrap(v, bits):
+    half = 1 << (bits - 1)
+    return (v + half) % (1 << bits) - half
+
+
+def unzigzag(z):
+    return (z >> 1) ^ -(z & 1)
+
+
+def decode_payload(payload, codec, layers):
+    raw = zstandard.ZstdDecompressor().decompress(ZSTD_MAGIC + payload)
+    values = [0] * VOXELS
+    for i in range(VOXELS):
+        p = previous_along(i)
+        values[i] = wrap(raw[i] + (0 if p is None else values[p]), 8)
+    if any(abs(v) > layers + 1 for v in values):
+        raise SpecError("a value beyond the layers")
+    if codec == 1:
+        if len(raw) != VOXELS:
+            raise SpecError("codec 1 payload length")
+        return values, None
+    stored = [v >= -1 for v in values]
+    if codec == 2:
+        if len(raw) != 3 * VOXELS:
+            raise SpecError("codec 2 payload length")
+        z = [raw[VOXELS + i] | raw[2 * VOXELS + i] << 8 for i in range(VOXELS)]
+        d = [0] * VOXELS
+        for i in range(VOXELS):
+            p = previous_along(i)
+            d[i] = wrap((0 if p is None else d[p]) + unzigzag(z[i]), 16)
+        # A reader puts the bound in place of the distances no contact reads.
+        d = [d[i] if stored[i] else 32 * values[i] + 16 for i in range(VOXELS)]
+    elif codec == 3:
+        n = sum(stored)
+        if len(raw) != VOXELS + 2 * n:
+            raise SpecError("codec 3 payload length")
+        d, k = [0] * VOXELS, 0
+        for i in range(VOXELS):
+            if not stored[i]:
+                d[i] = 32 * values[i] + 16
+                continue
+            z = raw[VOXELS + k] | raw[VOXELS + n + k] << 8
+            p = previous_along(i)
+            d[i] = wrap((0 if p is None else d[p]) + unzigzag(z), 16)
+            k += 1
+    else:
+        d = decode_median(raw[VOXELS:], values, stored)
+    reach = (layers + 0.5) * 32
+    for i in range(VOXELS):
+        if abs(d[i]) > reach:
+            raise SpecError(f"voxel {i}: distance {d[i]} beyond the reach")
+        if stored[i] and ((values[i] < 0 and d[i] >= 0) or (values[i] > 0 and d[i] <= 0)):
+            raise SpecError(f"voxel {i}: distance {d[i]} on the wrong side of value {values[i]}")
+    return values, d
+
+
+def median_prediction(i, d, stored, values):
+    """Codec 4's prediction of voxel `i` from the distances `d` decoded before it."""
+    x, y, z = coords(i)
+
+    def n(dx, dy, dz):
+        a, b, c = x + dx, y + dy, z + dz
+        j = a + 8 * b + 64 * c
+        return d[j] if 0 <= a < 8 and 0 <= b < 8 and 0 <= c < 8 and stored[j] else None
+
+    a, b, c = n(-1, 0, 0), n(0, -1, 0), n(0, 0, -1)
+    a2, b2, c2 = n(-2, 0, 0), n(0, -2, 0), n(0, 0, -2)
+    ab, ac, bc = n(-1, -1, 0), n(-1, 0, -1), n(0, -1, -1)
+    xb, xc, yc = n(1, -1, 0), n(1, 0, -1), n(0, 1, -1)  # a⁺b, a⁺c, b⁺c
+
+    def known(*vs):
+        return all(v is not None for v in vs)
+
+    candidates = [
+        a + b - ab if known(a, b, ab) else None,  # A
+        a + c - ac if known(a, c, ac) else None,  # B
+        b + c - bc if known(b, c, bc) else None,  # C
+        2 * a - a2 if known(a, a2) else None,  # D
+        2 * b - b2 if known(b, b2) else None,  # E
+        2 * c - c2 if known(c, c2) else None,  # F
+        xb + a - b if known(xb, a, b) else None,  # G
+        xc + a - c if known(xc, a, c) else None,  # H
+        yc + b - c if known(yc, b, c) else None,  # I
+    ]
+    available = sorted(v for v in candidates if v is not None)
+    if available:
+        return available[(len(available) - 1) // 2]
+    first = next((v for v in (a, b, c) if v is not None), None)
+    return first if first is not None else 32 * values[i]
+
+
+def decode_median(stream, values, stored):
+    d, at = [0] * VOXELS, 0
+    for i in range(VOXELS):
+        if not stored[i]:
+            d[i] = 32 * values[i] + 16
+            continue
+        if at >= len(stream):
+            raise SpecError("the residuals end before the stored distances")
+        if stream[at] == 255:
+            if at + 3 > len(stream):
+                raise SpecError("the residuals end inside an escape")
+            z, at = stream[at + 1] | stream[at + 2] << 8, at + 3
+        else:
+            z, at = stream[at], at + 1
+        v = median_prediction(i, d, stored, values) + unzigzag(z)
+        if not -(1 << 15) <= v < (1 << 15):
+            raise SpecError(f"voxel {i}: distance {v} beyond 16 bits")
+        d[i] = v
+    if at != len(stream):
+        raise SpecError("residuals left over")
+    return d
