@@ -22,7 +22,7 @@ pub(crate) mod figures;
 mod report;
 mod tilted;
 
-use figures::{figures, replay};
+use figures::{figures, replay, Query};
 
 /// Arguments of `vps haptics-bench`.
 #[derive(Args, Debug)]
@@ -53,6 +53,11 @@ pub struct HapticsBenchArgs {
     /// Replay the trajectory this many times (the first pass starts with a cold cache).
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
+    /// Pace the queries as a device's servo loop does, this many a second (1000 for 1 kHz),
+    /// the calling thread asleep between them, as are then the pool's threads. Without it the
+    /// queries run back to back, which keeps those threads awake.
+    #[arg(long, conflicts_with = "tilted_box")]
+    pub rate: Option<f64>,
     /// Time-critical mode: a budget per query, in microseconds. Without it, every query is exact.
     #[arg(long)]
     pub budget_us: Option<u64>,
@@ -120,6 +125,12 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
         bail!("--tilts is for --tilted-box");
     }
     let params = contact_params(a.stiffness, a.budget_us, a.penetration)?;
+    let period = match a.rate {
+        Some(hz) if !(hz.is_finite() && hz > 0.0 && hz <= 1e6) => {
+            bail!("--rate must be a number of queries a second, above 0 and at most 10⁶, got {hz}")
+        }
+        rate => rate.map(|hz| std::time::Duration::from_secs_f64(1.0 / hz)),
+    };
     if a.repeat == 0 {
         bail!("--repeat must be at least 1");
     }
@@ -216,20 +227,14 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
         );
     }
 
-    let samples = replay("sphere tree", &voxmap, &shell, &poses, a.repeat, &params, contact)?;
+    let replay_with =
+        |what: &str, query: Query| replay(what, &voxmap, &shell, &poses, a.repeat, period, &params, query);
+    let samples = replay_with("sphere tree", contact)?;
     let fig = figures(&samples);
     let cache = voxmap.stats();
 
     let brute = if a.brute_force {
-        let b = replay(
-            "brute force",
-            &voxmap,
-            &shell,
-            &poses,
-            a.repeat,
-            &params,
-            contact_brute_force,
-        )?;
+        let b = replay_with("brute force", contact_brute_force)?;
         // Without a budget the two must agree bit for bit.
         let mismatches = if params.budget.is_none() {
             samples.iter().zip(&b).filter(|(x, y)| !x.same_result(y)).count()

@@ -1,6 +1,6 @@
 //! Replaying poses with timing, and the latency and throughput figures of the samples.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use glam::DVec3;
@@ -122,13 +122,16 @@ pub fn figures(samples: &[Sample]) -> Figures {
 /// A haptic query: the sphere-tree one or the brute-force reference.
 pub type Query = fn(&CachedVoxmap, &PointshellFile, &Pose, &ContactParams) -> Result<Contact, HapticsError>;
 
-/// Run every pose `repeat` times with `query`, timing each call.
+/// Run every pose `repeat` times with `query`, timing each call: back to back, or one each
+/// `period` (a query that runs late starts the next at once, with no catching up).
+#[allow(clippy::too_many_arguments)]
 pub fn replay(
     what: &str,
     voxmap: &CachedVoxmap,
     shell: &PointshellFile,
     poses: &[Pose],
     repeat: usize,
+    period: Option<Duration>,
     params: &ContactParams,
     query: Query,
 ) -> Result<Vec<Sample>> {
@@ -140,8 +143,14 @@ pub fn replay(
     );
     pb.set_message(what.to_string());
     let mut samples = Vec::with_capacity(total);
+    let mut due = Instant::now();
     for pass in 0..repeat {
         for (i, pose) in poses.iter().enumerate() {
+            if let Some(period) = period {
+                // Asleep, as a servo loop waits for its device's next sample.
+                std::thread::sleep(due.saturating_duration_since(Instant::now()));
+                due = due.max(Instant::now()) + period;
+            }
             let t = Instant::now();
             let c = query(voxmap, shell, pose, params)
                 .with_context(|| format!("{what}: query {} (pose {}, pass {})", i + 1, pose.to_text(), pass + 1))?;

@@ -144,6 +144,7 @@ fn print_json(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
         "repeat": a.repeat,
         "stiffness": r.params.stiffness,
         "budget_us": a.budget_us,
+        "rate_hz": a.rate,
         "open_seconds": r.open_seconds,
         "queries": fig.queries,
         "first_query_us": fig.first_us,
@@ -220,13 +221,17 @@ fn print_table(a: &HapticsBenchArgs, r: &Run, vh: &VoxmapHeader) -> Result<()> {
         mib(ph.file_bytes)
     );
     outln!(
-        "trajectory   {}: {} poses{}",
+        "trajectory   {}: {} poses{}, {}",
         r.source,
         r.poses,
         if a.repeat > 1 {
             format!(" × {} passes", a.repeat)
         } else {
             String::new()
+        },
+        match a.rate {
+            Some(hz) => format!("{hz} queries a second"),
+            None => "back to back".to_string(),
         }
     );
     outln!(

@@ -174,6 +174,15 @@ impl Frame<'_> {
     /// `parallel_min_points` or more, the nodes below them tested and their blocks walked on
     /// the pool, else here. The block sums are added in block order.
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
+        if self.points.len() as u64 >= parallel_min_points && rayon::current_thread_index().is_none() {
+            // Wake the pool now, so that its threads are up when the tasks come: in a servo
+            // loop they sleep between queries, and waking them took tens of µs on a VM. A
+            // query from outside the pool pays it at the start of the parallel part, then
+            // again when its first task splits. At 1 kHz this took the built-in sweep's p99
+            // from 614–680 µs to 469–571 (`docs/PERFORMANCE.md`, "Queries at a servo
+            // loop's pace"); back to back its threads are awake and this costs ~0.4 µs.
+            rayon::spawn_broadcast(|_| {});
+        }
         let tasks = self.cut_at(TASK_POINTS, true, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
         let mut sums = BlockSums::default();
