@@ -102,6 +102,10 @@ pub struct CachedVoxmap {
 /// Most idle cursor tables kept: more than the threads that query at once.
 const MAX_IDLE_TABLES: usize = 64;
 
+/// Most cursor tables made at open ([`CachedVoxmap::prepare_for_queries`]): on a machine of
+/// many cores the first query's other threads make their own, each on its own thread.
+const PREPARED_TABLES: usize = 8;
+
 /// A cursor's own brick table, direct-mapped by brick coordinates.
 struct Table {
     /// Brick keys; `u64::MAX` marks an empty entry (no brick has that key).
@@ -162,8 +166,8 @@ fn shard_of(key: u64) -> usize {
 
 impl CachedVoxmap {
     /// Open and map a `.vxm` file, with a cache of [`DEFAULT_CACHE_BYTES`]. Like every
-    /// constructor, it builds the stored-brick bit sets the contact query culls with, so that
-    /// the first query does not.
+    /// constructor, it builds the stored-brick bit sets the contact query culls with, and the
+    /// cursor tables and brick decoders its threads use, so that the first query does not.
     pub fn open(path: impl AsRef<std::path::Path>) -> Result<CachedVoxmap, StorageError> {
         Ok(Self::new(VoxmapFile::open(path)?))
     }
@@ -199,7 +203,25 @@ impl CachedVoxmap {
             occupancy: None,
         };
         cached.occupancy = cached.brick_bits();
+        cached.prepare_for_queries();
         cached
+    }
+
+    /// Make at open what the threads of the first query would otherwise make in it: a cursor
+    /// table for the calling thread and each of the pool's (about 100 KiB each, whose first
+    /// touch cost the first query's serial top about 0.14 ms on this VM), and the file's brick
+    /// decoders ([`VoxmapFile::prepare_decoders`]), as a servo loop allocates nothing it can
+    /// allocate before it starts (`docs/PERFORMANCE.md`, "What the first query made for
+    /// itself").
+    fn prepare_for_queries(&self) {
+        let n = (rayon::current_num_threads() + 1).min(PREPARED_TABLES);
+        self.tables
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .extend((0..n).map(|_| Table::new()));
+        if let Source::File(file) = &self.source {
+            file.prepare_decoders();
+        }
     }
 
     /// The mapped file underneath, if the voxmap came from one.
@@ -390,6 +412,18 @@ fn random_point(rng: &mut crate::shapes::SplitMix, dims: [f64; 3], margin: f64) 
     )
 }
 
+/// The bytes of [`test_ball`]'s `.vxm` file, for tests that damage them.
+#[cfg(test)]
+fn test_ball_bytes(ball: &CachedVoxmap) -> Vec<u8> {
+    let VoxmapSource::Memory(map) = ball.source() else {
+        unreachable!("built in memory")
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ball.vxm");
+    crate::write_voxmap(&path, map).unwrap();
+    std::fs::read(&path).unwrap()
+}
+
 /// A ball of radius 0.75 voxelized with distances (voxels of 0.1, 3 layers), in memory: the
 /// voxmap the look-up tests read at random points.
 #[cfg(test)]
@@ -407,6 +441,27 @@ fn test_ball() -> CachedVoxmap {
 mod tests {
     use super::*;
     use crate::voxmap::{distance_reach, DISTANCE_STEP};
+
+    /// Opening makes cursor tables ready for the calling thread and the pool's, and decodes the
+    /// first brick on each thread to make its decoder; a first brick that does not decode
+    /// leaves the error to the look-up that reads it, and opening neither fails nor panics.
+    #[test]
+    fn opening_prepares_tables_and_leaves_a_bad_first_brick_to_its_look_up() {
+        let ball = test_ball();
+        let idle = ball.tables.lock().unwrap().len();
+        assert_eq!(idle, (rayon::current_num_threads() + 1).min(PREPARED_TABLES));
+        let mut bytes = test_ball_bytes(&ball);
+        let file = VoxmapFile::from_bytes(&bytes).unwrap();
+        let first = file.index().unwrap()[0];
+        // The payload's frame header: the decoders' warm-up (which checks no CRC) fails to
+        // decompress it, and the look-up finds the CRC wrong.
+        let at = first.offset as usize;
+        bytes[at..at + 4].copy_from_slice(&[0xff; 4]);
+        let broken = CachedVoxmap::new(VoxmapFile::from_bytes(&bytes).unwrap());
+        let b = ball.grid().brick_coords(first.key);
+        let v = [0, 1, 2].map(|a| b[a] * 8);
+        assert!(matches!(broken.value(v), Err(StorageError::BrickChecksum { .. })));
+    }
 
     /// At a voxel centre the distance read is the voxel's own, in world units; between
     /// centres it is the cursor's blend; beyond the grid, or at a point not finite, minus the

@@ -472,15 +472,9 @@ mod tests {
     /// its table to the next cursor, which would read it without an error.
     #[test]
     fn a_failed_read_leaves_no_apron_behind() {
-        use crate::haptics::cache::{CachedVoxmap, VoxmapSource};
+        use crate::haptics::cache::CachedVoxmap;
         let ball = super::super::test_ball();
-        let VoxmapSource::Memory(map) = ball.source() else {
-            unreachable!("built in memory")
-        };
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("ball.vxm");
-        crate::write_voxmap(&path, map).unwrap();
-        let mut bytes = std::fs::read(&path).unwrap();
+        let mut bytes = super::super::test_ball_bytes(&ball);
         let grid = *ball.grid();
         let n = grid.brick_dims().map(u64::from);
         // Two stored bricks side by side along x; the second is corrupted.
@@ -496,8 +490,7 @@ mod tests {
         let offset = second.offset as usize;
         drop(file);
         bytes[offset] ^= 0xFF;
-        std::fs::write(&path, &bytes).unwrap();
-        let voxmap = CachedVoxmap::open(&path).unwrap();
+        let voxmap = CachedVoxmap::new(crate::VoxmapFile::from_bytes(&bytes).unwrap());
         // A point in the first brick's last voxel along x, past its centre: its cell reaches
         // into the second brick, so its corners come from the first brick's apron.
         let b = grid.brick_coords(first);
