@@ -13,7 +13,7 @@ venv="${VPS_PY_VENV:-$target/py-venv}"
 rm -rf "$venv"
 python3 -m venv "$venv"
 py="$venv/bin/python"
-"$py" -m pip install -q maturin pytest numpy zstandard "dask[distributed]"
+"$py" -m pip install -q maturin pytest numpy "zstandard>=0.23" "dask[distributed]"
 # The package is built unoptimised (the `dev` profile) for the tests: a release build from
 # scratch takes minutes on a small CI machine. Users install with plain `pip install ./python`.
 # The `vps` binary the tests compare against is the one `cargo test` just built (`test` profile).

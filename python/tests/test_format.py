@@ -76,6 +76,29 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
         assert np.array_equal(voxmap.distances(points), np.array(steps) / 32 * SIZE)
 
 
+def test_a_voxmap_without_distances_reads_by_the_spec_as_version_1(tmp_path):
+    made = vps.voxelize(vps.Mesh(*cracked_soup()), SIZE, layers=LAYERS)
+    path = tmp_path / "part.vxm"
+    made.write(path)
+    vxm = read(path)
+    assert vxm.version == 1 and all(ds is None for _, ds in vxm.bricks.values())
+    voxels = np.vstack([brick_voxels(vxm, k) for k in vxm.bricks])
+    values = [v for vs, _ in vxm.bricks.values() for v in vs]
+    for voxmap in (made, vps.Voxmap.open(path)):
+        assert not voxmap.has_distances
+        assert np.array_equal(voxmap.values(centres(vxm, voxels)), np.array(values, dtype=np.int8))
+        with pytest.raises(ValueError, match="no distances"):
+            voxmap.distances([[0.0, 0.0, 0.0]])
+
+
+def test_distances_beyond_the_grid_or_not_finite_are_minus_the_reach():
+    voxmap = vps.voxelize(vps.Mesh(*ball()), SIZE, layers=LAYERS, distances=True)
+    far = [[1e9, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.0, np.inf, 0.0], [0.0, 0.0, -np.inf]]
+    assert np.array_equal(voxmap.distances(far), np.full(4, -(LAYERS + 0.5) * SIZE))
+    with pytest.raises(ValueError):
+        voxmap.distances([[0.0, 0.0]])
+
+
 def closest_distances(points, verts, tris):
     """Unsigned distance from each point to the nearest triangle: every point against every
     triangle (the regions of the closest point, as in Ericson's Real-Time Collision Detection)."""

@@ -2,8 +2,11 @@
 the spec, against which `test_format.py` checks the library's files and lookups.
 
 Slow and obvious on purpose (voxel by voxel, the median by sorting), and it does not import
-`vps`. It reads versions 1 to 4 and checks what the spec says a reader checks of a valid file:
-the magic, the layout, every CRC, the value range and the distances' range and sign.
+`vps`. It reads versions 1 to 4 (the tests give it the two this library writes, 1 and 4) and
+checks a file against the spec's rules: the header's fields and limits, the layout and its zero
+padding, every CRC, one zstd frame per payload of its codec's length, the value range, the
+distances' range and sign, sorted keys and runs, no stored brick in a run, and the header's
+counts against a recount of the bricks.
 """
 
 import struct
@@ -18,6 +21,8 @@ HEADER_BYTES = 192
 VOXELS = 512
 # Which codec each version's payloads use: the version's number.
 CODECS = {1: 1, 2: 2, 3: 3, 4: 4}
+# The longest payload of each codec (`P`).
+MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560}
 
 
 class SpecError(Exception):
@@ -76,6 +81,10 @@ def read(path):
     shift, edge, layers, codec = data[60], data[61], data[62], data[63]
     if (shift, edge) != (3, 8) or codec != CODECS[version] or layers > 126:
         raise SpecError(f"brick {shift}/{edge}, codec {codec}, layers {layers}")
+    if any(d == 0 or d % 8 or d > 1 << 24 for d in dims) or not 0 < voxel_size < float("inf"):
+        raise SpecError(f"grid {dims}, voxel size {voxel_size}")
+    if any(not abs(o) < float("inf") for o in origin) or any(data[152:188]):
+        raise SpecError("origin not finite, or reserved bytes not zero")
     names = ["surface_voxels", "inner_voxels", "bricks_stored", "inside_tile_bricks", "inside_runs",
              "payload_offset", "payload_bytes", "index_offset", "runs_offset", "file_bytes"]
     counts = {n: u64(64 + 8 * i) for i, n in enumerate(names)}
@@ -89,6 +98,8 @@ def read(path):
         raise SpecError(f"layout {got}, expected {want}")
     if zlib.crc32(data[index_offset:runs_offset]) != u32(144) or zlib.crc32(data[runs_offset:]) != u32(148):
         raise SpecError("index or run table CRC")
+    if any(data[HEADER_BYTES + counts["payload_bytes"] : index_offset]):
+        raise SpecError("padding before the index not zero")
     vxm = VxmFile(version, origin, voxel_size, dims, layers, counts)
     nb = vxm.brick_dims
     next_offset, last_key = HEADER_BYTES, -1
@@ -96,6 +107,8 @@ def read(path):
         key, offset, length, crc = struct.unpack_from("<QQII", data, index_offset + 24 * i)
         if key <= last_key or key >= nb[0] * nb[1] * nb[2] or offset != next_offset:
             raise SpecError(f"index entry {i}: key {key}, offset {offset}")
+        if not 1 <= length <= MAX_PAYLOAD[codec]:
+            raise SpecError(f"index entry {i}: payload of {length} bytes")
         payload = data[offset : offset + length]
         if zlib.crc32(payload) != crc:
             raise SpecError(f"brick {key}: payload CRC")
@@ -108,6 +121,14 @@ def read(path):
         if not start < end <= nb[0] * nb[1] * nb[2] or (vxm.runs and start < vxm.runs[-1][1]):
             raise SpecError(f"run {i}: {start}..{end}")
         vxm.runs.append((start, end))
+    if any(s <= k < e for k in vxm.bricks for s, e in vxm.runs):
+        raise SpecError("a stored brick inside an inside run")
+    # The header's counts, recounted.
+    tiles = sum(e - s for s, e in vxm.runs)
+    surface = sum(v == 0 for vs, _ in vxm.bricks.values() for v in vs)
+    inner = sum(v > 0 for vs, _ in vxm.bricks.values() for v in vs) + VOXELS * tiles
+    if (counts["inside_tile_bricks"], counts["surface_voxels"], counts["inner_voxels"]) != (tiles, surface, inner):
+        raise SpecError(f"counts {counts}, recounted {tiles} tile bricks, {surface} surface, {inner} inner voxels")
     return vxm
 
 
@@ -131,7 +152,17 @@ def unzigzag(z):
 
 
 def decode_payload(payload, codec, layers):
-    raw = zstandard.ZstdDecompressor().decompress(ZSTD_MAGIC + payload)
+    frame = ZSTD_MAGIC + payload
+    if zstandard.get_frame_parameters(frame).content_size == zstandard.CONTENTSIZE_UNKNOWN:
+        raise SpecError("a frame without its content size")
+    try:
+        # Exactly one frame: no bytes, and no second frame, after it.
+        raw = zstandard.ZstdDecompressor().decompress(frame, allow_extra_data=False)
+    except zstandard.ZstdError as e:
+        raise SpecError(f"not one zstd frame: {e}") from e
+    lengths = {1: VOXELS, 2: 3 * VOXELS}
+    if len(raw) != lengths.get(codec, len(raw)) or not VOXELS <= len(raw) <= 2048:
+        raise SpecError(f"codec {codec}: a frame of {len(raw)} bytes")
     values = [0] * VOXELS
     for i in range(VOXELS):
         p = previous_along(i)
@@ -139,18 +170,17 @@ def decode_payload(payload, codec, layers):
     if any(abs(v) > layers + 1 for v in values):
         raise SpecError("a value beyond the layers")
     if codec == 1:
-        if len(raw) != VOXELS:
-            raise SpecError("codec 1 payload length")
         return values, None
     stored = [v >= -1 for v in values]
+    reach = (layers + 0.5) * 32
     if codec == 2:
-        if len(raw) != 3 * VOXELS:
-            raise SpecError("codec 2 payload length")
         z = [raw[VOXELS + i] | raw[2 * VOXELS + i] << 8 for i in range(VOXELS)]
         d = [0] * VOXELS
         for i in range(VOXELS):
             p = previous_along(i)
             d[i] = wrap((0 if p is None else d[p]) + unzigzag(z[i]), 16)
+        if any(abs(x) > reach for x in d):
+            raise SpecError("a distance beyond the reach")
         # A reader puts the bound in place of the distances no contact reads.
         d = [d[i] if stored[i] else 32 * values[i] + 16 for i in range(VOXELS)]
     elif codec == 3:
@@ -168,7 +198,6 @@ def decode_payload(payload, codec, layers):
             k += 1
     else:
         d = decode_median(raw[VOXELS:], values, stored)
-    reach = (layers + 0.5) * 32
     for i in range(VOXELS):
         if abs(d[i]) > reach:
             raise SpecError(f"voxel {i}: distance {d[i]} beyond the reach")

@@ -140,6 +140,16 @@ impl Table {
             aprons: Vec::new(),
         })
     }
+
+    /// Empty it, as [`Table::new`] makes it, keeping its memory.
+    fn reset(&mut self) {
+        self.keys.fill(u64::MAX);
+        self.slots.fill(Slot::Tile(0));
+        self.apron_keys.fill(u64::MAX);
+        self.apron_flat.fill(None);
+        self.apron_pos.fill(u16::MAX);
+        self.aprons.clear();
+    }
 }
 
 impl std::fmt::Debug for CachedVoxmap {
@@ -209,10 +219,9 @@ impl CachedVoxmap {
 
     /// Make at open what the threads of the first query would otherwise make in it: a cursor
     /// table for the calling thread and each of the pool's (about 100 KiB each, whose first
-    /// touch cost the first query's serial top about 0.14 ms on this VM), and the file's brick
-    /// decoders ([`VoxmapFile::prepare_decoders`]), as a servo loop allocates nothing it can
-    /// allocate before it starts (`docs/PERFORMANCE.md`, "What the first query made for
-    /// itself").
+    /// touch cost the first query's serial top about 0.14 ms on a 2-core VM), and the file's
+    /// brick decoders ([`VoxmapFile::prepare_decoders`]): a servo loop makes before it starts
+    /// what it can (`docs/PERFORMANCE.md`, "What the first query made for itself").
     fn prepare_for_queries(&self) {
         let n = (rayon::current_num_threads() + 1).min(PREPARED_TABLES);
         self.tables
@@ -394,7 +403,12 @@ impl CachedVoxmap {
 
     /// Empty the cache (to measure a cold query, say).
     pub fn clear(&self) {
-        self.tables.lock().unwrap_or_else(|e| e.into_inner()).clear();
+        // Emptied, not dropped: those made at open stay made.
+        self.tables
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter_mut()
+            .for_each(|t| t.reset());
         for s in self.shards.iter() {
             s.write().unwrap_or_else(|e| e.into_inner()).clear();
         }

@@ -6,8 +6,7 @@ use std::sync::atomic::Ordering;
 
 use glam::DVec3;
 
-use super::Slot;
-use super::{shard_of, table_entry, CachedVoxmap, Occupancy, Table, MAX_IDLE_TABLES};
+use super::{shard_of, table_entry, CachedVoxmap, Occupancy, Slot, Table, MAX_IDLE_TABLES};
 use crate::grid::{split_voxel, BRICK_SHIFT};
 use crate::storage::StorageError;
 use crate::voxmap::{far_distance, inside_value, outside_value, BrickSlot};

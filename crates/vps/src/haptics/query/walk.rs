@@ -142,6 +142,17 @@ impl Frame<'_> {
     /// `cull`, every node down to them is tested, those under a culled node are dropped, and
     /// those returned have been tested.
     pub(super) fn cut_at(&self, max_points: u32, cull: bool, acc: &mut Contact) -> Result<Vec<usize>, StorageError> {
+        self.cut_waking(max_points, cull, false, acc)
+    }
+
+    /// [`Frame::cut_at`], and with `wake`, once the root is not culled, [`wake_pool`].
+    fn cut_waking(
+        &self,
+        max_points: u32,
+        cull: bool,
+        wake: bool,
+        acc: &mut Contact,
+    ) -> Result<Vec<usize>, StorageError> {
         let mut out = Vec::new();
         if self.nodes.is_empty() {
             return Ok(out);
@@ -156,6 +167,9 @@ impl Frame<'_> {
                     acc.nodes_culled += 1;
                     continue;
                 }
+            }
+            if wake && i == 0 {
+                wake_pool();
             }
             match node.children() {
                 Some([a, b]) if node.point_count > max_points => {
@@ -174,16 +188,10 @@ impl Frame<'_> {
     /// `parallel_min_points` or more, the nodes below them tested and their blocks walked on
     /// the pool, else here. The block sums are added in block order.
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
-        if self.points.len() as u64 >= parallel_min_points && rayon::current_thread_index().is_none() {
-            // Wake the pool now, so that its threads are up when the tasks come: in a servo
-            // loop they sleep between queries, and waking them took tens of µs on a VM. A
-            // query from outside the pool pays it at the start of the parallel part, then
-            // again when its first task splits. At 1 kHz this took the built-in sweep's p99
-            // from 614–680 µs to 469–571 (`docs/PERFORMANCE.md`, "Queries at a servo
-            // loop's pace"); back to back its threads are awake and this costs ~0.4 µs.
-            rayon::spawn_broadcast(|_| {});
-        }
-        let tasks = self.cut_at(TASK_POINTS, true, acc)?;
+        // A query that may go parallel, from outside the pool, wakes the pool as soon as the
+        // root is not culled (see `wake_pool`).
+        let wake = self.points.len() as u64 >= parallel_min_points && rayon::current_thread_index().is_none();
+        let tasks = self.cut_waking(TASK_POINTS, true, wake, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
         let mut sums = BlockSums::default();
         if points >= parallel_min_points && tasks.len() > 1 {
@@ -451,6 +459,21 @@ impl Frame<'_> {
             next.clear();
         }
         cur.finish()
+    }
+}
+
+/// Most pool threads a query wakes ahead of its tasks; the others join as the work spreads.
+const WAKE_AHEAD: usize = 4;
+
+/// Wake up to [`WAKE_AHEAD`] of the pool's threads now, so that they are up when the tasks
+/// come, with a job of nothing each: in a servo loop they sleep between queries, and waking
+/// them took tens of µs on a VM, which a query from outside the pool paid at the start of its
+/// parallel part and again when its first task split. At 1 kHz on two cores this took the
+/// built-in sweep's p99 from 614–680 µs to 464–571 (`docs/PERFORMANCE.md`, "Queries at a
+/// servo loop's pace"); back to back the threads are awake and it costs about 0.4 µs.
+fn wake_pool() {
+    for _ in 0..rayon::current_num_threads().min(WAKE_AHEAD) {
+        rayon::spawn(|| {});
     }
 }
 

@@ -260,21 +260,22 @@ impl VoxmapFile {
         })
     }
 
-    /// The payload bytes of entry `i`, checked to lie within the payload section.
     /// Make each thread's brick decoder (a zstd context, its tables and buffers) before a
     /// query needs it: decode the first stored brick, and throw it away, on this thread now and
     /// on each of the pool's threads in the background. A decoder made and first touched in a
-    /// query cost that query about 0.1 ms a thread (`docs/PERFORMANCE.md`, "What the first
-    /// query made for itself"). Errors are left to the look-ups that read the brick.
+    /// query cost that query's serial top most of 0.1 ms (`docs/PERFORMANCE.md`, "What the
+    /// first query made for itself"). A first brick that fails its checks (length, CRC) is
+    /// not decoded: its error is left to the look-ups that read it.
     pub fn prepare_decoders(&self) {
-        let first = self
-            .index()
-            .ok()
-            .and_then(|index| index.first().map(|e| self.payload(0, e)));
-        let Some(Ok(payload)) = first else {
+        let codec = codec_of(self.header.version);
+        let first = self.index().ok().and_then(|index| index.first().copied());
+        let Some(e) = first.filter(|e| e.len as usize <= max_payload_bytes(codec)) else {
             return;
         };
-        let (payload, layers, codec) = (payload.to_vec(), self.header.layers, codec_of(self.header.version));
+        let Some(payload) = self.payload(0, &e).ok().filter(|p| crc32fast::hash(p) == e.crc) else {
+            return;
+        };
+        let (payload, layers) = (payload.to_vec(), self.header.layers);
         let decode = move || {
             let _ = decode_payload(&payload, layers, codec);
         };
@@ -282,6 +283,7 @@ impl VoxmapFile {
         rayon::spawn_broadcast(move |_| decode());
     }
 
+    /// The payload bytes of entry `i`, checked to lie within the payload section.
     pub(super) fn payload(&self, i: usize, e: &IndexEntry) -> Result<&[u8], StorageError> {
         let bad = || {
             corrupt(
