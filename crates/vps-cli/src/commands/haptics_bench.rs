@@ -22,7 +22,7 @@ pub(crate) mod figures;
 mod report;
 mod tilted;
 
-use figures::{figures, replay, Query};
+use figures::{figures, replay, Replay};
 
 /// Arguments of `vps haptics-bench`.
 #[derive(Args, Debug)]
@@ -227,14 +227,20 @@ pub fn run(a: HapticsBenchArgs) -> Result<()> {
         );
     }
 
-    let replay_with =
-        |what: &str, query: Query| replay(what, &voxmap, &shell, &poses, a.repeat, period, &params, query);
-    let samples = replay_with("sphere tree", contact)?;
+    let replaying = Replay {
+        voxmap: &voxmap,
+        shell: &shell,
+        poses: &poses,
+        repeat: a.repeat,
+        period,
+        params: &params,
+    };
+    let samples = replay("sphere tree", &replaying, contact)?;
     let fig = figures(&samples);
     let cache = voxmap.stats();
 
     let brute = if a.brute_force {
-        let b = replay_with("brute force", contact_brute_force)?;
+        let b = replay("brute force", &replaying, contact_brute_force)?;
         // Without a budget the two must agree bit for bit.
         let mismatches = if params.budget.is_none() {
             samples.iter().zip(&b).filter(|(x, y)| !x.same_result(y)).count()

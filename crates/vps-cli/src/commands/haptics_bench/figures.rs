@@ -122,19 +122,34 @@ pub fn figures(samples: &[Sample]) -> Figures {
 /// A haptic query: the sphere-tree one or the brute-force reference.
 pub type Query = fn(&CachedVoxmap, &PointshellFile, &Pose, &ContactParams) -> Result<Contact, HapticsError>;
 
+/// What a replay runs: the files, the poses and how many times, and its pace.
+#[derive(Clone, Copy)]
+pub struct Replay<'a> {
+    /// The static object.
+    pub voxmap: &'a CachedVoxmap,
+    /// The moving one.
+    pub shell: &'a PointshellFile,
+    /// The poses, in order.
+    pub poses: &'a [Pose],
+    /// Passes over the poses.
+    pub repeat: usize,
+    /// One query each `period`, or back to back.
+    pub period: Option<Duration>,
+    /// The queries' parameters.
+    pub params: &'a ContactParams,
+}
+
 /// Run every pose `repeat` times with `query`, timing each call: back to back, or one each
 /// `period` (a query that runs late starts the next at once, with no catching up).
-#[allow(clippy::too_many_arguments)]
-pub fn replay(
-    what: &str,
-    voxmap: &CachedVoxmap,
-    shell: &PointshellFile,
-    poses: &[Pose],
-    repeat: usize,
-    period: Option<Duration>,
-    params: &ContactParams,
-    query: Query,
-) -> Result<Vec<Sample>> {
+pub fn replay(what: &str, r: &Replay<'_>, query: Query) -> Result<Vec<Sample>> {
+    let Replay {
+        voxmap,
+        shell,
+        poses,
+        repeat,
+        period,
+        params,
+    } = *r;
     let total = poses.len() * repeat;
     let pb = indicatif::ProgressBar::with_draw_target(Some(total as u64), indicatif::ProgressDrawTarget::stderr());
     pb.set_style(
