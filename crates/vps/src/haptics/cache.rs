@@ -350,15 +350,10 @@ impl CachedVoxmap {
             return Ok(None);
         }
         let grid = *self.grid();
-        let far_out = -crate::voxmap::distance_reach(self.layers());
         let mut cur = self.cursor();
         let distances = points
             .into_iter()
-            .map(|p| {
-                let u = grid.to_grid_units(p);
-                // A point not finite has no cell: `distance_at` would floor it to voxel 0.
-                grid.voxel_size * if u.is_finite() { cur.distance_at(u) } else { far_out }
-            })
+            .map(|p| grid.voxel_size * cur.distance_at(grid.to_grid_units(p)))
             .collect();
         cur.finish()?;
         Ok(Some(distances))
@@ -467,8 +462,8 @@ mod tests {
         let mut bytes = test_ball_bytes(&ball);
         let file = VoxmapFile::from_bytes(&bytes).unwrap();
         let first = file.index().unwrap()[0];
-        // The payload's frame header: the decoders' warm-up (which checks no CRC) fails to
-        // decompress it, and the look-up finds the CRC wrong.
+        // The payload's frame header: the decoders' warm-up finds the CRC wrong and skips the
+        // brick, and so does the look-up, which reports it.
         let at = first.offset as usize;
         bytes[at..at + 4].copy_from_slice(&[0xff; 4]);
         let broken = CachedVoxmap::new(VoxmapFile::from_bytes(&bytes).unwrap());

@@ -122,11 +122,18 @@ impl Cursor<'_> {
     }
 
     /// The signed distance at grid-unit point `u`, in voxels, positive inside: trilinear over
-    /// the eight voxel centres around it (beyond the grid, the far-outside distance). Only for
-    /// a voxmap with distances.
+    /// the eight voxel centres around it (beyond the grid, or not finite, the far-outside
+    /// distance). Only for a voxmap with distances.
     #[inline(always)]
     pub fn distance_at(&mut self, u: DVec3) -> f64 {
-        let (b, t) = if self.contains(u) { cell(u) } else { cell_anywhere(u) };
+        let (b, t) = if self.contains(u) {
+            cell(u)
+        } else if u.is_finite() {
+            cell_anywhere(u)
+        } else {
+            // No cell: `cell_anywhere` would floor NaN to 0 and blend with weights of NaN.
+            return self.far_out as f64 * DISTANCE_STEP;
+        };
         let mut c = [[self.far_out as i32; 1]; 8];
         // Cells beyond `i32` lie far beyond the grid: far outside, as they start.
         if let (Ok(x), Ok(y), Ok(z)) = (i32::try_from(b[0]), i32::try_from(b[1]), i32::try_from(b[2])) {

@@ -234,14 +234,7 @@ impl VoxmapFile {
         i: usize,
         e: &IndexEntry,
     ) -> Result<(BrickValues, Option<BrickDistances>), StorageError> {
-        let payload = self.payload(i, e)?;
-        if crc32fast::hash(payload) != e.crc {
-            return Err(StorageError::BrickChecksum {
-                path: self.path.clone(),
-                index: i as u64,
-                key: e.key,
-            });
-        }
+        let payload = self.checked_payload(i, e)?;
         let codec = codec_of(self.header.version);
         decode_payload(payload, self.header.layers, codec).map_err(|err| match err {
             DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
@@ -272,7 +265,7 @@ impl VoxmapFile {
         let Some(e) = first.filter(|e| e.len as usize <= max_payload_bytes(codec)) else {
             return;
         };
-        let Some(payload) = self.payload(0, &e).ok().filter(|p| crc32fast::hash(p) == e.crc) else {
+        let Ok(payload) = self.checked_payload(0, &e) else {
             return;
         };
         let (payload, layers) = (payload.to_vec(), self.header.layers);
@@ -281,6 +274,19 @@ impl VoxmapFile {
         };
         decode();
         rayon::spawn_broadcast(move |_| decode());
+    }
+
+    /// [`VoxmapFile::payload`], its CRC checked against the entry's.
+    fn checked_payload(&self, i: usize, e: &IndexEntry) -> Result<&[u8], StorageError> {
+        let payload = self.payload(i, e)?;
+        if crc32fast::hash(payload) != e.crc {
+            return Err(StorageError::BrickChecksum {
+                path: self.path.clone(),
+                index: i as u64,
+                key: e.key,
+            });
+        }
+        Ok(payload)
     }
 
     /// The payload bytes of entry `i`, checked to lie within the payload section.
