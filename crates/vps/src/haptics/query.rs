@@ -20,6 +20,7 @@ use crate::pointshell::PointshellData;
 use crate::storage::StorageError;
 
 mod kernel;
+mod share;
 #[cfg(test)]
 mod tests;
 mod walk;

@@ -3,8 +3,7 @@
 
 use std::time::Instant;
 
-use rayon::prelude::*;
-
+use super::share::{helpers, share};
 use super::{Class, Contact, Frame, BLOCK_POINTS};
 use crate::haptics::cache::Cursor;
 use crate::pointshell::{NodeLoad, SphereNode};
@@ -185,27 +184,29 @@ impl Frame<'_> {
 
     /// The exact walk: the nodes down to the tasks (the first of at most [`TASK_POINTS`]
     /// points) tested here; when more than one task is left and they hold
-    /// `parallel_min_points` or more, the nodes below them tested and their blocks walked on
-    /// the pool, else here. The block sums are added in block order.
+    /// `parallel_min_points` or more, the tasks shared between this thread and the pool
+    /// ([`share`]), else all walked here. Each thread walks its tasks through one cursor, and
+    /// the block sums are added in block order, whoever made them.
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
-        // A query that may go parallel, from outside the pool, wakes the pool as soon as the
-        // root is not culled (see `wake_pool`).
-        let wake = self.points.len() as u64 >= parallel_min_points && rayon::current_thread_index().is_none();
+        // A query that may go parallel wakes the pool's threads it will share with as soon as
+        // the root is not culled (see `wake_pool`).
+        let wake = self.points.len() as u64 >= parallel_min_points;
         let tasks = self.cut_waking(TASK_POINTS, true, wake, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
         let mut sums = BlockSums::default();
+        let task = |cur: &mut Cursor<'_>, t: usize| {
+            let mut task_sums = BlockSums::default();
+            self.sums_below(cur, t, &mut task_sums).map(|()| task_sums)
+        };
         if points >= parallel_min_points && tasks.len() > 1 {
-            let task = |&t: &usize| {
-                let mut task_sums = BlockSums::default();
-                self.sums_below(t, None, &mut task_sums).map(|()| task_sums)
-            };
-            let done: Vec<BlockSums> = tasks.par_iter().map(task).collect::<Result<_, _>>()?;
-            done.into_iter().for_each(|t| sums.append(t));
+            let done = share(tasks.len(), || self.voxmap.cursor(), |cur, k| task(cur, tasks[k]));
+            for t in done {
+                sums.append(t?);
+            }
         } else {
-            // On this thread, one cursor and one list of sums for all the tasks.
             let mut cur = self.voxmap.cursor();
             for &t in &tasks {
-                self.sums_below(t, Some(&mut cur), &mut sums)?;
+                sums.append(task(&mut cur, t)?);
             }
         }
         acc.nodes_tested += sums.nodes_tested;
@@ -216,52 +217,26 @@ impl Frame<'_> {
         Ok(())
     }
 
-    /// Add to `sums` those of the blocks below node `root`, tested and not culled, in block
-    /// order: its descendants of more than [`BLOCK_POINTS`] points tested on the way. With
-    /// `cur`, all of it on this thread through that cursor; without, the two halves of each
-    /// node as a `rayon::join` (the second with sums of its own, appended after the first's),
-    /// each node test and block walk with a cursor of its own, given back at once: cursors
-    /// kept down each thread's path held more tables at a time, and the first query after
-    /// opening gathered the same aprons into each (`docs/PERFORMANCE.md`).
-    fn sums_below(&self, root: usize, cur: Option<&mut Cursor<'_>>, sums: &mut BlockSums) -> Result<(), StorageError> {
+    /// Add to `sums` those of the blocks below node `root` (tested, not culled), in block
+    /// order, through `cur`: its descendants of more than [`BLOCK_POINTS`] points tested on
+    /// the way. Each block is summed apart, as the brute force sums it.
+    fn sums_below(&self, cur: &mut Cursor<'_>, root: usize, sums: &mut BlockSums) -> Result<(), StorageError> {
         let node = &self.nodes[root];
-        let children = node.children().filter(|_| node.point_count > BLOCK_POINTS);
-        let Some([a, b]) = children else {
+        let Some(halves) = node.children().filter(|_| node.point_count > BLOCK_POINTS) else {
             let mut part = Contact::default();
-            self.with_cursor(cur, |cur| self.walk(cur, root, true, &mut part))?;
+            self.walk(cur, root, true, &mut part)?;
             sums.parts.push(part);
             return Ok(());
         };
-        let half = |i: usize, mut cur: Option<&mut Cursor<'_>>, sums: &mut BlockSums| -> Result<(), StorageError> {
+        for i in halves {
             sums.nodes_tested += 1;
-            if self.with_cursor(cur.as_deref_mut(), |c| self.is_outside(c, &self.nodes[i]))? {
+            if self.is_outside(cur, &self.nodes[i])? {
                 sums.nodes_culled += 1;
-                return Ok(());
-            }
-            self.sums_below(i, cur, sums)
-        };
-        match cur {
-            Some(cur) => {
-                half(a, Some(&mut *cur), sums)?;
-                half(b, Some(cur), sums)?;
-            }
-            None => {
-                let mut second = BlockSums::default();
-                let (first_done, second_done) = rayon::join(|| half(a, None, sums), || half(b, None, &mut second));
-                first_done?;
-                second_done?;
-                sums.append(second);
+            } else {
+                self.sums_below(cur, i, sums)?;
             }
         }
         Ok(())
-    }
-
-    /// `f` through `cur`, or through a cursor of its own, given back when `f` returns.
-    fn with_cursor<R>(&self, cur: Option<&mut Cursor<'_>>, f: impl FnOnce(&mut Cursor<'_>) -> R) -> R {
-        match cur {
-            Some(cur) => f(cur),
-            None => f(&mut self.voxmap.cursor()),
-        }
     }
 
     /// Whether testing `node` reads a brick already in `cur`'s table (or none): one not at hand
@@ -462,17 +437,17 @@ impl Frame<'_> {
     }
 }
 
-/// Most pool threads a query wakes ahead of its tasks; the others join as the work spreads.
+/// Most pool threads a query wakes ahead of its tasks.
 const WAKE_AHEAD: usize = 4;
 
-/// Wake up to [`WAKE_AHEAD`] of the pool's threads now, so that they are up when the tasks
-/// come, with a job of nothing each: in a servo loop they sleep between queries, and waking
-/// them took tens of µs on a VM, which a query from outside the pool paid at the start of its
-/// parallel part and again when its first task split. At 1 kHz on two cores this took the
+/// Wake the pool's threads a query shares its tasks with ([`helpers`], at most
+/// [`WAKE_AHEAD`]) now, so that they are up when the tasks come, with a job of nothing each:
+/// in a servo loop they sleep between queries, and waking them took tens of µs on a VM, which
+/// a query paid at the start of its parallel part. At 1 kHz on two cores this took the
 /// built-in sweep's p99 from 614–680 µs to 464–571 (`docs/PERFORMANCE.md`, "Queries at a
 /// servo loop's pace"); back to back the threads are awake and it costs about 0.4 µs.
 fn wake_pool() {
-    for _ in 0..rayon::current_num_threads().min(WAKE_AHEAD) {
+    for _ in 0..helpers().min(WAKE_AHEAD) {
         rayon::spawn(|| {});
     }
 }

@@ -1,0 +1,115 @@
+//! Work shared between the calling thread and the pool: the caller takes part instead of
+//! waiting.
+//!
+//! `par_iter` from outside the pool hands all the work to the pool and puts the caller to
+//! sleep until it is done. On two cores that cost the first query after opening about 1 ms:
+//! the scheduler queued the second pool thread it woke behind the first, on the same core,
+//! for 2.5 ms, while the caller slept on the other (a scheduler trace of `vps contact`,
+//! `docs/PERFORMANCE.md`, "The caller takes part"). Here the caller works through the items
+//! with the pool's threads, so the cores it leaves idle are only those the pool cannot fill.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// `task(state, i)` for every `i` in `0..n`, on the calling thread and on at most one fewer of
+/// the pool's threads than the pool has (so that as many threads work as there are, the caller
+/// among them). Each takes the next item no one has taken, and makes its `state` (a cursor,
+/// say) with `make_state` before its first item, so a thread that finds no item left makes
+/// none. The results come back in item order, whichever thread made them.
+pub(super) fn share<S, R: Send>(
+    n: usize,
+    make_state: impl Fn() -> S + Sync,
+    task: impl Fn(&mut S, usize) -> R + Sync,
+) -> Vec<R> {
+    let next = AtomicUsize::new(0);
+    let results: Vec<Mutex<Option<R>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    let work = || {
+        let mut state = None;
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= n {
+                return;
+            }
+            let state = state.get_or_insert_with(&make_state);
+            let r = task(state, i);
+            // A lock taken once per item, by one thread: it only hands the result over.
+            *results[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+        }
+    };
+    let helpers = helpers().min(n.saturating_sub(1));
+    rayon::in_place_scope(|scope| {
+        for _ in 0..helpers {
+            scope.spawn(|_| work());
+        }
+        work();
+    });
+    results
+        .into_iter()
+        .map(|r| {
+            r.into_inner()
+                .unwrap_or_else(|e| e.into_inner())
+                .expect("every item is taken once and finished before the scope ends")
+        })
+        .collect()
+}
+
+/// Threads that [`share`] would set to work besides the caller.
+pub(super) fn helpers() -> usize {
+    rayon::current_num_threads().saturating_sub(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+    use std::thread::ThreadId;
+
+    /// The items run, each once, and which threads ran them.
+    fn run(n: usize, micros: u64) -> (Vec<usize>, Vec<(usize, ThreadId)>) {
+        let ran = Mutex::new(Vec::new());
+        let out = share(
+            n,
+            || std::thread::current().id(),
+            |id, i| {
+                ran.lock().unwrap().push((i, *id));
+                std::thread::sleep(std::time::Duration::from_micros(micros));
+                i * 3
+            },
+        );
+        (out, ran.into_inner().unwrap())
+    }
+
+    /// Every item once, results in item order, on pools of one thread and of more threads
+    /// than items; no more threads at work than the pool has.
+    #[test]
+    fn every_item_runs_once_and_comes_back_in_order() {
+        for threads in [1, 2, 3, 8] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            for n in [0, 1, 2, 5, 200] {
+                let (out, ran) = pool.install(|| run(n, 20));
+                assert_eq!(
+                    out,
+                    (0..n).map(|i| i * 3).collect::<Vec<_>>(),
+                    "{threads} threads, {n} items"
+                );
+                let items: HashSet<usize> = ran.iter().map(|r| r.0).collect();
+                assert_eq!((ran.len(), items.len()), (n, n));
+                let workers: HashSet<ThreadId> = ran.iter().map(|r| r.1).collect();
+                assert!(workers.len() <= threads, "{} threads at work", workers.len());
+            }
+        }
+    }
+
+    /// From outside the pool the calling thread works too, and with no helper it does all.
+    #[test]
+    fn a_caller_outside_the_pool_takes_part() {
+        let caller = std::thread::current().id();
+        // Items of 200 µs: the pool's threads could take all 64 before the caller takes one
+        // only if it stalled for milliseconds right after waking them.
+        let (_, ran) = run(64, 200);
+        assert!(ran.iter().any(|r| r.1 == caller), "the caller ran none of 64 items");
+        if helpers() == 0 {
+            assert!(ran.iter().all(|r| r.1 == caller));
+        }
+    }
+}
