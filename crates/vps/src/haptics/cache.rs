@@ -23,7 +23,7 @@ use crate::storage::slice::{Slice, SliceError};
 use crate::storage::{StorageError, VoxmapFile};
 use crate::voxmap::{outside_value, BrickSlot, StoredBrick, Voxmap, VoxmapCounts};
 pub use cursor::Cursor;
-use distance::{Apron, APRON_SLOTS};
+use distance::{Apron, APRON_LEN, APRON_SLOTS};
 use occupancy::Occupancy;
 
 mod cursor;
@@ -92,7 +92,10 @@ pub struct CachedVoxmap {
     cursor_hits: AtomicU64,
     /// Cursor tables not in use. A cursor takes one and gives it back, so the bricks a haptic
     /// loop touches stay in its table from one query to the next.
-    tables: Mutex<Vec<Box<Table>>>,
+    tables: Arc<Mutex<Vec<Box<Table>>>>,
+    /// Bricks allocated, and their memory touched, at open, which the first bricks decoded
+    /// fill instead of allocating (see [`CachedVoxmap::prepare_for_queries`]).
+    spares: Arc<Mutex<Vec<Arc<StoredBrick>>>>,
     /// Which bricks are stored, at every scale, and which are inside tiles (`None` for a grid
     /// too large, or a file whose index or runs cannot be read: the queries then cull by the
     /// layers alone, and tiles are looked up in the file).
@@ -105,6 +108,14 @@ const MAX_IDLE_TABLES: usize = 64;
 /// Most cursor tables made at open ([`CachedVoxmap::prepare_for_queries`]): on a machine of
 /// many cores the first query's other threads make their own, each on its own thread.
 const PREPARED_TABLES: usize = 8;
+
+/// Bricks allocated at open for the first ones decoded: the first query after opening decodes
+/// about 200 in the built-in haptics bench.
+const SPARE_BRICKS: usize = 256;
+
+/// Aprons whose storage a table made at open has touched: about those the first query's
+/// threads build each in the built-in haptics bench (180 bricks' distances read, two threads).
+const TOUCHED_APRONS: usize = 128;
 
 /// A cursor's own brick table, direct-mapped by brick coordinates.
 struct Table {
@@ -139,6 +150,18 @@ impl Table {
             apron_pos: [u16::MAX; APRON_SLOTS],
             aprons: Vec::new(),
         })
+    }
+
+    /// A table made at open for a voxmap with distances: its apron storage reserved, and its
+    /// first [`TOUCHED_APRONS`] written once, so that the first query's aprons fault no page.
+    fn prepared(distances: bool) -> Box<Table> {
+        let mut table = Table::new();
+        if distances {
+            table.aprons.reserve_exact(APRON_SLOTS);
+            table.aprons.resize(TOUCHED_APRONS, [0; APRON_LEN]);
+            table.aprons.clear();
+        }
+        table
     }
 
     /// Empty it, as [`Table::new`] makes it, keeping its memory.
@@ -209,7 +232,8 @@ impl CachedVoxmap {
             misses: AtomicU64::new(0),
             hits: AtomicU64::new(0),
             cursor_hits: AtomicU64::new(0),
-            tables: Mutex::new(Vec::new()),
+            tables: Arc::default(),
+            spares: Arc::default(),
             occupancy: None,
         };
         cached.occupancy = cached.brick_bits();
@@ -218,18 +242,50 @@ impl CachedVoxmap {
     }
 
     /// Make at open what the threads of the first query would otherwise make in it: a cursor
-    /// table for the calling thread and each of the pool's (about 100 KiB each, whose first
-    /// touch cost the first query's serial top about 0.14 ms on a 2-core VM), and the file's
-    /// brick decoders ([`VoxmapFile::prepare_decoders`]): a servo loop makes before it starts
-    /// what it can (`docs/PERFORMANCE.md`, "What the first query made for itself").
+    /// table for the calling thread and each of the pool's (at most [`PREPARED_TABLES`]), the
+    /// file's brick decoders ([`VoxmapFile::prepare_decoders`]), and [`SPARE_BRICKS`] bricks
+    /// for the first ones decoded. A table's first touch cost the first query's serial top
+    /// about 0.14 ms on a 2-core VM, and the pages of the bricks and aprons it allocated about
+    /// 140 page faults (`docs/PERFORMANCE.md`, "What the first query made for itself", "Its
+    /// memory made at open"): a servo loop makes before it starts what it can. The pool's
+    /// threads make their tables and bricks in the background, each in its own memory.
     fn prepare_for_queries(&self) {
-        let n = (rayon::current_num_threads() + 1).min(PREPARED_TABLES);
-        self.tables
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .extend((0..n).map(|_| Table::new()));
+        let distances = self.has_distances();
+        lock(&self.tables).push(Table::prepared(distances));
         if let Source::File(file) = &self.source {
             file.prepare_decoders();
+        }
+        let (tables, spares) = (Arc::clone(&self.tables), Arc::clone(&self.spares));
+        let bricks = SPARE_BRICKS.div_ceil(rayon::current_num_threads());
+        rayon::spawn_broadcast(move |ctx| {
+            if ctx.index() + 1 < PREPARED_TABLES {
+                let table = Table::prepared(distances);
+                lock(&tables).push(table);
+            }
+            let made: Vec<Arc<StoredBrick>> = (0..bricks)
+                .map(|_| {
+                    Arc::new(StoredBrick {
+                        values: [0; BRICK_VOXELS],
+                        distances: distances.then_some([0; BRICK_VOXELS]),
+                    })
+                })
+                .collect();
+            lock(&spares).extend(made);
+        });
+    }
+
+    /// `brick`, shared: in a spare made at open while any is left.
+    fn shared(&self, brick: StoredBrick) -> Arc<StoredBrick> {
+        let spare = lock(&self.spares).pop();
+        match spare {
+            Some(mut spare) => match Arc::get_mut(&mut spare) {
+                Some(b) => {
+                    *b = brick;
+                    spare
+                }
+                None => Arc::new(brick),
+            },
+            None => Arc::new(brick),
         }
     }
 
@@ -301,9 +357,10 @@ impl CachedVoxmap {
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
-            Source::File(f) => f.stored_brick(key)?,
-            Source::Memory(v) => v.stored_brick(key).map(Arc::new),
-        };
+            Source::File(f) => f.stored_brick_value(key)?,
+            Source::Memory(v) => v.stored_brick(key),
+        }
+        .map(|brick| self.shared(brick));
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {
             map.clear();
@@ -399,15 +456,17 @@ impl CachedVoxmap {
     /// Empty the cache (to measure a cold query, say).
     pub fn clear(&self) {
         // Emptied, not dropped: those made at open stay made.
-        self.tables
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .iter_mut()
-            .for_each(|t| t.reset());
+        lock(&self.tables).iter_mut().for_each(|t| t.reset());
         for s in self.shards.iter() {
             s.write().unwrap_or_else(|e| e.into_inner()).clear();
         }
     }
+}
+
+/// A poisoned lock only means another thread panicked while holding it; what it guards (idle
+/// tables, spare bricks) is still whole.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// A random point of grid units, up to `margin` beyond a grid of `dims` voxels on each side:
@@ -451,14 +510,47 @@ mod tests {
     use super::*;
     use crate::voxmap::{distance_reach, DISTANCE_STEP};
 
-    /// Opening makes cursor tables ready for the calling thread and the pool's, and decodes the
+    /// Opening makes cursor tables ready for the calling thread and the pool's, with apron
+    /// storage touched, and spare bricks, which the first bricks decoded fill; it decodes the
     /// first brick on each thread to make its decoder; a first brick that does not decode
     /// leaves the error to the look-up that reads it, and opening neither fails nor panics.
     #[test]
     fn opening_prepares_tables_and_leaves_a_bad_first_brick_to_its_look_up() {
         let ball = test_ball();
-        let idle = ball.tables.lock().unwrap().len();
-        assert_eq!(idle, (rayon::current_num_threads() + 1).min(PREPARED_TABLES));
+        // The pool's share is made in the background: a broadcast after it runs after it on
+        // every thread.
+        rayon::broadcast(|_| ());
+        let threads = rayon::current_num_threads();
+        {
+            let idle = lock(&ball.tables);
+            assert_eq!(idle.len(), (threads + 1).min(PREPARED_TABLES));
+            assert!(idle.iter().all(|t| t.aprons.capacity() >= APRON_SLOTS));
+        }
+        let spares = lock(&ball.spares).len();
+        assert_eq!(spares, SPARE_BRICKS.div_ceil(threads) * threads);
+        // Look-ups at random points decode bricks into the spares, and read what the voxmap
+        // holds.
+        let VoxmapSource::Memory(map) = ball.source() else {
+            unreachable!("built in memory")
+        };
+        let mut rng = crate::shapes::SplitMix(3);
+        let dims = ball.grid().dims.map(f64::from);
+        for _ in 0..500 {
+            let u = random_point(&mut rng, dims, 0.0);
+            let v = [u.x, u.y, u.z].map(|c| c as u32);
+            assert_eq!(ball.value(v).unwrap(), map.value(v));
+        }
+        let decoded: usize = (ball.shards.iter())
+            .map(|s| {
+                s.read()
+                    .unwrap()
+                    .values()
+                    .filter(|v| matches!(v, Slot::Stored(_)))
+                    .count()
+            })
+            .sum();
+        assert!(decoded > 0 && decoded < spares);
+        assert_eq!(lock(&ball.spares).len(), spares - decoded);
         let mut bytes = test_ball_bytes(&ball);
         let file = VoxmapFile::from_bytes(&bytes).unwrap();
         let first = file.index().unwrap()[0];

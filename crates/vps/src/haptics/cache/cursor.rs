@@ -66,7 +66,7 @@ impl Drop for Cursor<'_> {
             .cursor_hits
             .fetch_add(self.switches - self.shared, Ordering::Relaxed);
         if let Some(table) = self.table.take().filter(|_| !self.failed) {
-            let mut idle = self.voxmap.tables.lock().unwrap_or_else(|e| e.into_inner());
+            let mut idle = super::lock(&self.voxmap.tables);
             if idle.len() < MAX_IDLE_TABLES {
                 idle.push(table);
             }
@@ -89,7 +89,7 @@ impl<'a> Cursor<'a> {
         let d = grid.dims;
         let n = grid.brick_dims();
         let outside = outside_value(voxmap.layers());
-        let table = voxmap.tables.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        let table = super::lock(&voxmap.tables).pop();
         Cursor {
             voxmap,
             dims: d,

@@ -15,8 +15,11 @@ use crate::voxmap::{BrickDistances, BrickSlot, DISTANCE_STEP};
 /// eight voxel centres around any point whose lower corner lies in the brick are in one array.
 const APRON_EDGE: usize = BRICK as usize + 1;
 
+/// Voxels of an apron.
+pub(super) const APRON_LEN: usize = APRON_EDGE * APRON_EDGE * APRON_EDGE;
+
 /// The distances of a brick's apron, x fastest, in steps of [`DISTANCE_STEP`].
-pub(super) type Apron = [i16; APRON_EDGE * APRON_EDGE * APRON_EDGE];
+pub(super) type Apron = [i16; APRON_LEN];
 
 /// Aprons a cursor table keeps, direct-mapped by brick coordinates (8 × 8 × 8 bricks): 1.4 KiB
 /// each. Gathering the eight corners of an interpolation from up to eight bricks, each

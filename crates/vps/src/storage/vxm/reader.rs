@@ -323,10 +323,15 @@ impl VoxmapFile {
     /// with one decompression for both. Shared, as a cache keeps it: one allocation a brick
     /// (a `Box` turned into an `Arc` made two, and copied the brick).
     pub fn stored_brick(&self, key: u64) -> Result<BrickSlot<Arc<StoredBrick>>, StorageError> {
+        Ok(self.stored_brick_value(key)?.map(Arc::new))
+    }
+
+    /// [`VoxmapFile::stored_brick`] by value, for a cache that puts it in memory of its own.
+    pub fn stored_brick_value(&self, key: u64) -> Result<BrickSlot<StoredBrick>, StorageError> {
         let (index, runs) = self.tables()?;
         if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
             let (values, distances) = self.read_entry_full(i, &index[i])?;
-            return Ok(BrickSlot::Stored(Arc::new(StoredBrick { values, distances })));
+            return Ok(BrickSlot::Stored(StoredBrick { values, distances }));
         }
         Ok(BrickSlot::Tile(self.tile_value(runs, key)))
     }
