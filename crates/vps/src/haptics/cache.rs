@@ -248,7 +248,8 @@ impl CachedVoxmap {
     /// about 0.14 ms on a 2-core VM, and the pages of the bricks and aprons it allocated about
     /// 140 page faults (`docs/PERFORMANCE.md`, "What the first query made for itself", "Its
     /// memory made at open"): a servo loop makes before it starts what it can. The pool's
-    /// threads make their tables and bricks in the background, each in its own memory.
+    /// threads make their tables and bricks in the background. No more spare bricks are made
+    /// than the voxmap stores or the cache holds ([`CachedVoxmap::spare_bricks`]).
     fn prepare_for_queries(&self) {
         let distances = self.has_distances();
         lock(&self.tables).push(Table::prepared(distances));
@@ -256,7 +257,7 @@ impl CachedVoxmap {
             file.prepare_decoders();
         }
         let (tables, spares) = (Arc::clone(&self.tables), Arc::clone(&self.spares));
-        let bricks = SPARE_BRICKS.div_ceil(rayon::current_num_threads());
+        let bricks = self.spare_bricks().div_ceil(rayon::current_num_threads());
         rayon::spawn_broadcast(move |ctx| {
             if ctx.index() + 1 < PREPARED_TABLES {
                 let table = Table::prepared(distances);
@@ -274,10 +275,19 @@ impl CachedVoxmap {
         });
     }
 
+    /// Spare bricks to make at open: [`SPARE_BRICKS`], but no more than the voxmap stores or
+    /// the cache holds (a small voxmap, or a cache made small, would never fill them).
+    fn spare_bricks(&self) -> usize {
+        let stored = usize::try_from(self.counts().bricks_stored).unwrap_or(usize::MAX);
+        SPARE_BRICKS.min(stored).min(self.shard_capacity * SHARDS)
+    }
+
     /// `brick`, shared: in a spare made at open while any is left.
     fn shared(&self, brick: StoredBrick) -> Arc<StoredBrick> {
         let spare = lock(&self.spares).pop();
         match spare {
+            // A spare is never cloned, so `get_mut` finds it unshared; were it not, a new
+            // brick serves as well.
             Some(mut spare) => match Arc::get_mut(&mut spare) {
                 Some(b) => {
                     *b = brick;
@@ -517,17 +527,22 @@ mod tests {
     #[test]
     fn opening_prepares_tables_and_leaves_a_bad_first_brick_to_its_look_up() {
         let ball = test_ball();
-        // The pool's share is made in the background: a broadcast after it runs after it on
-        // every thread.
-        rayon::broadcast(|_| ());
+        // The pool's share is made in the background: wait until it is all there.
         let threads = rayon::current_num_threads();
+        let tables = (threads + 1).min(PREPARED_TABLES);
+        let spares = ball.spare_bricks().div_ceil(threads) * threads;
+        let start = std::time::Instant::now();
+        while (lock(&ball.tables).len() < tables || lock(&ball.spares).len() < spares) && start.elapsed().as_secs() < 20
+        {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
         {
             let idle = lock(&ball.tables);
-            assert_eq!(idle.len(), (threads + 1).min(PREPARED_TABLES));
+            assert_eq!(idle.len(), tables);
             assert!(idle.iter().all(|t| t.aprons.capacity() >= APRON_SLOTS));
         }
-        let spares = lock(&ball.spares).len();
-        assert_eq!(spares, SPARE_BRICKS.div_ceil(threads) * threads);
+        assert_eq!(lock(&ball.spares).len(), spares);
+        assert!(spares <= ball.counts().bricks_stored as usize + threads);
         // Look-ups at random points decode bricks into the spares, and read what the voxmap
         // holds.
         let VoxmapSource::Memory(map) = ball.source() else {
@@ -549,7 +564,9 @@ mod tests {
                     .count()
             })
             .sum();
-        assert!(decoded > 0 && decoded < spares);
+        // No more spares than stored bricks (rounded up to a share for each thread), so every
+        // brick decoded took one.
+        assert!(decoded > 0 && decoded <= spares);
         assert_eq!(lock(&ball.spares).len(), spares - decoded);
         let mut bytes = test_ball_bytes(&ball);
         let file = VoxmapFile::from_bytes(&bytes).unwrap();

@@ -16,6 +16,12 @@ use std::sync::Mutex;
 /// among them). Each takes the next item no one has taken, and makes its `state` (a cursor,
 /// say) with `make_state` before its first item, so a thread that finds no item left makes
 /// none. The results come back in item order, whichever thread made them.
+///
+/// The scope ends when every job it spawned has run, so a pool thread that takes a job late
+/// (busy with other work, or queued by the scheduler behind another thread) still holds the
+/// caller up, though it finds no item left; right after opening a voxmap, the jobs queue
+/// behind what opening left for each pool thread to make. Waiting for them needs no `unsafe`
+/// and no `'static` copy of the query's data, which detached jobs would.
 pub(super) fn share<S, R: Send>(
     n: usize,
     make_state: impl Fn() -> S + Sync,
@@ -63,6 +69,7 @@ mod tests {
     use super::*;
     use std::collections::HashSet;
     use std::thread::ThreadId;
+    use std::time::Instant;
 
     /// The items run, each once, and which threads ran them.
     fn run(n: usize, micros: u64) -> (Vec<usize>, Vec<(usize, ThreadId)>) {
@@ -104,9 +111,28 @@ mod tests {
     #[test]
     fn a_caller_outside_the_pool_takes_part() {
         let caller = std::thread::current().id();
-        // Items of 200 µs: the pool's threads could take all 64 before the caller takes one
-        // only if it stalled for milliseconds right after waking them.
-        let (_, ran) = run(64, 200);
+        let caller_started = AtomicUsize::new(0);
+        let ran = Mutex::new(Vec::new());
+        // The pool's threads hold their first item until the caller has taken one (or 10 s
+        // have passed), so that a caller stalled on a loaded machine cannot find every item
+        // taken; the caller's items never wait.
+        share(
+            64,
+            || std::thread::current().id(),
+            |id, i| {
+                if *id == caller {
+                    caller_started.store(1, Ordering::Release);
+                } else {
+                    let start = Instant::now();
+                    while caller_started.load(Ordering::Acquire) == 0 && start.elapsed().as_secs() < 10 {
+                        std::thread::sleep(std::time::Duration::from_micros(100));
+                    }
+                }
+                ran.lock().unwrap().push((i, *id));
+            },
+        );
+        let ran = ran.into_inner().unwrap();
+        assert_eq!(ran.len(), 64);
         assert!(ran.iter().any(|r| r.1 == caller), "the caller ran none of 64 items");
         if helpers() == 0 {
             assert!(ran.iter().all(|r| r.1 == caller));

@@ -10,8 +10,8 @@ use crate::pointshell::{NodeLoad, SphereNode};
 use crate::storage::StorageError;
 
 /// The exact walk tests the nodes down to the first of at most this many points (the tasks) on
-/// the calling thread, which decides from the points left in the tasks whether to wake the
-/// pool; the nodes below the tasks are tested there too. Testing every node above the blocks
+/// the calling thread, which decides from the points left in the tasks whether to share them
+/// with the pool; the nodes below a task are tested by the thread that walks it. Testing every node above the blocks
 /// on one thread kept the other idle for a quarter of the first query after opening (its node
 /// tests decode bricks).
 pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
@@ -188,8 +188,8 @@ impl Frame<'_> {
     /// ([`share`]), else all walked here. Each thread walks its tasks through one cursor, and
     /// the block sums are added in block order, whoever made them.
     pub(super) fn walk_exact(&self, parallel_min_points: u64, acc: &mut Contact) -> Result<(), StorageError> {
-        // A query that may go parallel wakes the pool's threads it will share with as soon as
-        // the root is not culled (see `wake_pool`).
+        // A query that may go parallel wakes as many pool threads as it would share with as
+        // soon as the root is not culled (see `wake_pool`); it may yet walk all here.
         let wake = self.points.len() as u64 >= parallel_min_points;
         let tasks = self.cut_waking(TASK_POINTS, true, wake, acc)?;
         let points: u64 = tasks.iter().map(|&t| self.nodes[t].point_count as u64).sum();
