@@ -242,23 +242,30 @@ impl CachedVoxmap {
     }
 
     /// Make at open what the threads of the first query would otherwise make in it: a cursor
-    /// table for the calling thread and each of the pool's (at most [`PREPARED_TABLES`]), the
-    /// file's brick decoders ([`VoxmapFile::prepare_decoders`]), and [`SPARE_BRICKS`] bricks
-    /// for the first ones decoded. A table's first touch cost the first query's serial top
-    /// about 0.14 ms on a 2-core VM, and the pages of the bricks and aprons it allocated about
-    /// 140 page faults (`docs/PERFORMANCE.md`, "What the first query made for itself", "Its
-    /// memory made at open"): a servo loop makes before it starts what it can. The pool's
-    /// threads make their tables and bricks in the background. No more spare bricks are made
-    /// than the voxmap stores or the cache holds ([`CachedVoxmap::spare_bricks`]).
+    /// table for the calling thread and each of the pool's (at most [`PREPARED_TABLES`]), their
+    /// brick decoders ([`VoxmapFile::decoder_warm_up`]), and [`SPARE_BRICKS`] bricks for the
+    /// first ones decoded. A table's first touch cost the first query's serial top about
+    /// 0.14 ms on a 2-core VM, and the pages of the bricks and aprons it allocated about 140
+    /// page faults (`docs/PERFORMANCE.md`, "What the first query made for itself", "Its memory
+    /// made at open"): a servo loop makes before it starts what it can. The pool's threads make
+    /// their share in the background, in one job each. No more spare bricks are made than the
+    /// voxmap stores or the cache holds ([`CachedVoxmap::spare_bricks`]).
     fn prepare_for_queries(&self) {
         let distances = self.has_distances();
         lock(&self.tables).push(Table::prepared(distances));
-        if let Source::File(file) = &self.source {
-            file.prepare_decoders();
+        let warm_up = match &self.source {
+            Source::File(file) => file.decoder_warm_up(),
+            Source::Memory(_) => None,
+        };
+        if let Some(warm_up) = &warm_up {
+            warm_up();
         }
         let (tables, spares) = (Arc::clone(&self.tables), Arc::clone(&self.spares));
         let bricks = self.spare_bricks().div_ceil(rayon::current_num_threads());
         rayon::spawn_broadcast(move |ctx| {
+            if let Some(warm_up) = &warm_up {
+                warm_up();
+            }
             if ctx.index() + 1 < PREPARED_TABLES {
                 let table = Table::prepared(distances);
                 lock(&tables).push(table);
@@ -285,18 +292,15 @@ impl CachedVoxmap {
     /// `brick`, shared: in a spare made at open while any is left.
     fn shared(&self, brick: StoredBrick) -> Arc<StoredBrick> {
         let spare = lock(&self.spares).pop();
-        match spare {
-            // A spare is never cloned, so `get_mut` finds it unshared; were it not, a new
-            // brick serves as well.
-            Some(mut spare) => match Arc::get_mut(&mut spare) {
-                Some(b) => {
-                    *b = brick;
-                    spare
-                }
-                None => Arc::new(brick),
-            },
-            None => Arc::new(brick),
+        // A spare is never cloned, so `get_mut` finds it unshared; were it not, a new brick
+        // serves as well.
+        if let Some(mut spare) = spare {
+            if let Some(b) = Arc::get_mut(&mut spare) {
+                *b = brick;
+                return spare;
+            }
         }
+        Arc::new(brick)
     }
 
     /// The mapped file underneath, if the voxmap came from one.

@@ -27,8 +27,8 @@ mod walk;
 
 /// The exact walk sums the points of each node of at most this many points on one thread.
 /// The blocks fix the order of the sums, whichever thread walks them (threads share whole
-/// tasks of 8,192 points). Changing it changes the rounding of the sums (never
-/// the counts), so it is a constant, not a parameter.
+/// tasks of 8,192 points). Changing it changes the rounding of the sums (never the counts),
+/// so it is a constant, not a parameter.
 pub const BLOCK_POINTS: u32 = 2048;
 
 /// Below this many candidate points a query runs on the calling thread: waking the pool costs
@@ -483,9 +483,9 @@ pub fn contact<S: PointshellData + ?Sized>(
     contact_threaded(voxmap, shell, pose, params, PARALLEL_MIN_POINTS)
 }
 
-/// [`contact`], shared with the thread pool only when more than one task (the first nodes of at most
-/// 8,192 points) is left after culling and they hold `parallel_min_points` or more (the haptic
-/// loop decides by the points its last query tested).
+/// [`contact`], shared with the thread pool only when more than one task (the first nodes of
+/// at most 8,192 points) is left after culling and they hold `parallel_min_points` or more
+/// (the haptic loop decides by the points its last query tested).
 pub(crate) fn contact_threaded<S: PointshellData + ?Sized>(
     voxmap: &CachedVoxmap,
     shell: &S,

@@ -11,9 +11,9 @@ use crate::storage::StorageError;
 
 /// The exact walk tests the nodes down to the first of at most this many points (the tasks) on
 /// the calling thread, which decides from the points left in the tasks whether to share them
-/// with the pool; the nodes below a task are tested by the thread that walks it. Testing every node above the blocks
-/// on one thread kept the other idle for a quarter of the first query after opening (its node
-/// tests decode bricks).
+/// with the pool; the nodes below a task are tested by the thread that walks it. Testing every
+/// node above the blocks on one thread kept the other idle for a quarter of the first query
+/// after opening (its node tests decode bricks).
 pub(super) const TASK_POINTS: u32 = 4 * BLOCK_POINTS;
 
 /// The time-critical walk checks the clock every this many nodes, and also before every
@@ -204,9 +204,10 @@ impl Frame<'_> {
                 sums.append(t?);
             }
         } else {
+            // One list of sums for all the tasks: no list of its own to append for each.
             let mut cur = self.voxmap.cursor();
             for &t in &tasks {
-                sums.append(task(&mut cur, t)?);
+                self.sums_below(&mut cur, t, &mut sums)?;
             }
         }
         acc.nodes_tested += sums.nodes_tested;

@@ -253,27 +253,21 @@ impl VoxmapFile {
         })
     }
 
-    /// Make each thread's brick decoder (a zstd context, its tables and buffers) before a
-    /// query needs it: decode the first stored brick, and throw it away, on this thread now and
-    /// on each of the pool's threads in the background. A decoder made and first touched in a
-    /// query cost that query's serial top most of 0.1 ms (`docs/PERFORMANCE.md`, "What the
-    /// first query made for itself"). A first brick that fails its checks (length, CRC) is
-    /// not decoded: its error is left to the look-ups that read it.
-    pub fn prepare_decoders(&self) {
+    /// What makes a thread's brick decoder (a zstd context, its tables and buffers) before a
+    /// query needs it: decoding the first stored brick and throwing it away, to run once on
+    /// each thread that will decode. A decoder made and first touched in a query cost that
+    /// query's serial top most of 0.1 ms (`docs/PERFORMANCE.md`, "What the first query made
+    /// for itself"). `None` for a file whose first brick fails its checks (length, CRC): its
+    /// error is left to the look-ups that read it.
+    pub fn decoder_warm_up(&self) -> Option<impl Fn() + Send + Sync + 'static> {
         let codec = codec_of(self.header.version);
-        let first = self.index().ok().and_then(|index| index.first().copied());
-        let Some(e) = first.filter(|e| e.len as usize <= max_payload_bytes(codec)) else {
-            return;
-        };
-        let Ok(payload) = self.checked_payload(0, &e) else {
-            return;
-        };
-        let (payload, layers) = (payload.to_vec(), self.header.layers);
-        let decode = move || {
+        let first = self.index().ok()?.first().copied();
+        let e = first.filter(|e| e.len as usize <= max_payload_bytes(codec))?;
+        let payload = self.checked_payload(0, &e).ok()?.to_vec();
+        let layers = self.header.layers;
+        Some(move || {
             let _ = decode_payload(&payload, layers, codec);
-        };
-        decode();
-        rayon::spawn_broadcast(move |_| decode());
+        })
     }
 
     /// [`VoxmapFile::payload`], its CRC checked against the entry's.
