@@ -117,23 +117,10 @@ struct RowCandidates {
 }
 
 /// [`RowCandidates`] of the row whose first voxel is at `base` in the field, its voxels
-/// `stored` or not: lane by lane over the row's eight voxels, in loops the compiler
+/// `stored` or not: lane by lane over the row's eight voxels, in one loop the compiler
 /// vectorizes.
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn row_candidates(f: &Field, base: usize, stored: &[bool; 8]) -> RowCandidates {
-    macro_rules! load {
-        ($back:expr, $ahead:expr) => {{
-            let from = base + $ahead - $back;
-            let row: [i32; 8] = f[from..from + 8].try_into().expect("8 voxels");
-            row
-        }};
-    }
-    // `b`, `c`: the voxels before along y and z; `b2`, `c2` two before; `ab`: before along x
-    // and y, and so on; `xb`: one ahead along x and one before along y, `xc` ahead along x and
-    // before along z, `yc` ahead along y and before along z.
-    let (b, b2, c, c2) = (load!(Y, 0), load!(2 * Y, 0), load!(Z, 0), load!(2 * Z, 0));
-    let (ab, ac, bc) = (load!(X + Y, 0), load!(X + Z, 0), load!(Y + Z, 0));
-    let (xb, xc, yc) = (load!(Y, X), load!(Z, X), load!(Z, Y));
     // Whether `a` and `a₂` will be known: stored voxels of this row before the voxel.
     let mut has_a = [0i32; 8];
     let mut has_a2 = [0i32; 8];
@@ -143,80 +130,70 @@ fn row_candidates(f: &Field, base: usize, stored: &[bool; 8]) -> RowCandidates {
     for x in 2..8 {
         has_a2[x] = stored[x - 2] as i32;
     }
-    let mut missing = [0i32; 8];
-    // Candidate `v` if every one of `parts` is known (`has` for `a`'s, which is not in the
-    // field yet), else the next pad, in the candidates' order. Macros, not closures: these
-    // were not inlined into the vectorized function.
-    macro_rules! next {
-        ($has:expr, [$p:expr, $q:expr, $r:expr], $v:expr) => {{
-            let (has, p, q, r, v) = ($has, $p, $q, $r, $v);
-            let mut out = [0i32; 8];
-            for x in 0..8 {
-                // In 32-bit lanes throughout: booleans made the compiler shuffle bytes.
-                let ok = has[x] & (p[x] != NONE) as i32 & (q[x] != NONE) as i32 & (r[x] != NONE) as i32;
-                let pad = -FAR + (missing[x] & 1) * 2 * FAR;
-                out[x] = if ok != 0 { v[x] } else { pad };
-                missing[x] += 1 - ok;
-            }
-            out
-        }};
-    }
-    // Eight lanes of an expression in `x`, as a plain loop.
-    macro_rules! lanes {
-        ($x:ident => $e:expr) => {{
-            let mut out = [0i32; 8];
-            for $x in 0..8 {
-                out[$x] = $e;
-            }
-            out
-        }};
-    }
-    let one = [1i32; 8];
-    let cand_a = next!(&has_a, [&b, &ab, &b], lanes!(x => b[x].wrapping_sub(ab[x])));
-    let cand_b = next!(&has_a, [&c, &ac, &c], lanes!(x => c[x].wrapping_sub(ac[x])));
-    let cand_c = next!(
-        &one,
-        [&b, &c, &bc],
-        lanes!(x => b[x].wrapping_add(c[x]).wrapping_sub(bc[x]))
-    );
-    let (known, a2) = ([0i32; 8], has_a2.map(|h| if h != 0 { 0 } else { NONE }));
-    let cand_d = next!(&has_a, [&a2, &known, &known], [0; 8]);
-    let cand_e = next!(
-        &one,
-        [&b, &b2, &b],
-        lanes!(x => b[x].wrapping_mul(2).wrapping_sub(b2[x]))
-    );
-    let cand_f = next!(
-        &one,
-        [&c, &c2, &c],
-        lanes!(x => c[x].wrapping_mul(2).wrapping_sub(c2[x]))
-    );
-    let cand_g = next!(&has_a, [&xb, &b, &xb], lanes!(x => xb[x].wrapping_sub(b[x])));
-    let cand_h = next!(&has_a, [&xc, &c, &xc], lanes!(x => xc[x].wrapping_sub(c[x])));
-    let cand_i = next!(
-        &one,
-        [&yc, &b, &c],
-        lanes!(x => yc[x].wrapping_add(b[x]).wrapping_sub(c[x]))
-    );
     let mut out = RowCandidates {
-        slopes: [cand_a, cand_b, cand_g, cand_h],
-        others: [cand_c, cand_e, cand_f, cand_i],
-        d_pad: cand_d,
+        slopes: [[0; 8]; 4],
+        others: [[0; 8]; 4],
+        d_pad: [0; 8],
     };
-    sort4(&mut out.slopes);
-    sort4(&mut out.others);
+    let load = |back: usize, ahead: usize| -> [i32; 8] {
+        let from = base + ahead - back;
+        f[from..from + 8].try_into().expect("8 voxels")
+    };
+    // `b`, `c`: the voxels before along y and z; `b2`, `c2` two before; `ab`: before along x
+    // and y, and so on; `xb`: one ahead along x and one before along y, `xc` ahead along x
+    // and before along z, `yc` ahead along y and before along z.
+    let (rb, rb2, rc, rc2) = (load(Y, 0), load(2 * Y, 0), load(Z, 0), load(2 * Z, 0));
+    let (rab, rac, rbc) = (load(X + Y, 0), load(X + Z, 0), load(Y + Z, 0));
+    let (rxb, rxc, ryc) = (load(Y, X), load(Z, X), load(Z, Y));
+    // One loop over the row's voxels with all the work in it, in 32-bit lanes throughout:
+    // the compiler vectorizes it, eight voxels a vector. A small loop for each candidate, as
+    // before, it unrolled and paired up in scalars, and it took twice as long.
+    for x in 0..8 {
+        let (b, b2, c, c2) = (rb[x], rb2[x], rc[x], rc2[x]);
+        let (ab, ac, bc) = (rab[x], rac[x], rbc[x]);
+        let (xb, xc, yc) = (rxb[x], rxc[x], ryc[x]);
+        let known = |v: i32| (v != NONE) as i32;
+        let (kb, kc) = (known(b), known(c));
+        let ha = has_a[x];
+        // Each candidate's value if every voxel it reads is known, else the next pad, in the
+        // candidates' order: far below, far above, and so on.
+        let mut missing = 0i32;
+        let mut next = |ok: i32, v: i32| {
+            let pad = -FAR + (missing & 1) * 2 * FAR;
+            missing += 1 - ok;
+            if ok != 0 {
+                v
+            } else {
+                pad
+            }
+        };
+        let cand_a = next(ha & kb & known(ab), b.wrapping_sub(ab));
+        let cand_b = next(ha & kc & known(ac), c.wrapping_sub(ac));
+        let cand_c = next(kb & kc & known(bc), b.wrapping_add(c).wrapping_sub(bc));
+        let cand_d = next(ha & has_a2[x], 0);
+        let cand_e = next(kb & known(b2), b.wrapping_mul(2).wrapping_sub(b2));
+        let cand_f = next(kc & known(c2), c.wrapping_mul(2).wrapping_sub(c2));
+        let cand_g = next(ha & kb & known(xb), xb.wrapping_sub(b));
+        let cand_h = next(ha & kc & known(xc), xc.wrapping_sub(c));
+        let cand_i = next(kb & kc & known(yc), yc.wrapping_add(b).wrapping_sub(c));
+        let slopes = sort4([cand_a, cand_b, cand_g, cand_h]);
+        let others = sort4([cand_c, cand_e, cand_f, cand_i]);
+        for j in 0..4 {
+            out.slopes[j][x] = slopes[j];
+            out.others[j][x] = others[j];
+        }
+        out.d_pad[x] = cand_d;
+    }
     out
 }
 
-/// Sort four values lane by lane (5 exchanges).
+/// Sort four values (5 exchanges).
 #[inline(always)]
-fn sort4(v: &mut [[i32; 8]; 4]) {
+fn sort4(mut v: [i32; 4]) -> [i32; 4] {
     for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-        let (low, high) = v.split_at_mut(b);
-        for (p, q) in low[a].iter_mut().zip(&mut high[0]) {
-            (*p, *q) = ((*p).min(*q), (*p).max(*q));
-        }
+        (v[a], v[b]) = (v[a].min(v[b]), v[a].max(v[b]));
     }
+    v
 }
 
 /// Zigzag: small magnitudes to small codes, 0, −1, 1, −2, … to 0, 1, 2, 3, ….
