@@ -48,7 +48,7 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
     path = tmp_path / "part.vxm"
     made.write(path)
     vxm = read(path)
-    assert vxm.version == 4 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
+    assert vxm.version == 5 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
     assert vxm.counts["bricks_stored"] == len(vxm.bricks) > 0
     # Every voxel of every stored brick, and a voxel of each tile brick: tiles have no
     # stored distance and read as the reach, with the tile's sign.
@@ -74,6 +74,27 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
         # At a voxel centre the blend is that voxel's distance alone; these centres and
         # sizes are exact in binary, so the same bits.
         assert np.array_equal(voxmap.distances(points), np.array(steps) / 32 * SIZE)
+
+
+def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
+    """A part of some thousand bricks gets a zstd dictionary (codec 5): the spec reads every
+    brick's values through it, and the distances of a sample of bricks, as the library looks
+    them up."""
+    made = vps.voxelize(vps.Mesh(*sphere(center=(0.31, 0.17, 0.23), radius=15.0, rings=48, segments=96)), SIZE,
+                        layers=LAYERS, distances=True)
+    path = tmp_path / "large.vxm"
+    made.write(path)
+    keys = sorted(read(path, distances_of=set()).bricks)
+    sample = set(keys[:8] + keys[len(keys) // 2 : len(keys) // 2 + 8] + keys[-8:])
+    vxm = read(path, distances_of=sample)
+    assert vxm.version == 5 and len(keys) > 1000 and vxm.counts["dictionary_bytes"] > 0, vxm.counts
+    voxels = np.vstack([brick_voxels(vxm, k) for k in sorted(sample)])
+    values = [v for k in sorted(sample) for v in vxm.bricks[k][0]]
+    steps = [d for k in sorted(sample) for d in vxm.bricks[k][1]]
+    points = centres(vxm, voxels)
+    voxmap = vps.Voxmap.open(path)
+    assert np.array_equal(voxmap.values(points), np.array(values, dtype=np.int8))
+    assert np.array_equal(voxmap.distances(points), np.array(steps) / 32 * SIZE)
 
 
 def test_a_voxmap_without_distances_reads_by_the_spec_as_version_1(tmp_path):

@@ -2,11 +2,14 @@
 the spec, against which `test_format.py` checks the library's files and lookups.
 
 Slow and obvious on purpose (voxel by voxel, the median by sorting), and it does not import
-`vps`. It reads versions 1 to 4 (the tests give it the two this library writes, 1 and 4) and
+`vps`. It reads versions 1 to 5 (the tests give it the two this library writes, 1 and 5) and
 checks a file against the spec's rules: the header's fields and limits, the layout and its zero
-padding, every CRC, one zstd frame per payload of its codec's length, the value range, the
-distances' range and sign, sorted keys and runs, no stored brick in a run, and the header's
-counts against a recount of the bricks.
+padding, every CRC, the dictionary, one zstd frame per payload of its codec's length, the
+value range, the distances' range and sign, sorted keys and runs, no stored brick in a run,
+and the header's counts against a recount of the bricks.
+
+Decoding every brick's distances voxel by voxel takes about 20 ms a brick here, so `read`
+can be told which bricks to decode the distances of; every brick's values are decoded.
 """
 
 import struct
@@ -20,9 +23,10 @@ ZSTD_MAGIC = bytes([0x28, 0xB5, 0x2F, 0xFD])
 HEADER_BYTES = 192
 VOXELS = 512
 # Which codec each version's payloads use: the version's number.
-CODECS = {1: 1, 2: 2, 3: 3, 4: 4}
+CODECS = {1: 1, 2: 2, 3: 3, 4: 4, 5: 5}
 # The longest payload of each codec (`P`).
-MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560}
+MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560, 5: 2560}
+MAX_DICTIONARY_BYTES = 1 << 16
 
 
 class SpecError(Exception):
@@ -63,8 +67,9 @@ class VxmFile:
         return (self.layers + 1 if inside else -(self.layers + 1)), None
 
 
-def read(path):
-    """Read and check the whole file at `path`."""
+def read(path, distances_of=None):
+    """Read and check the whole file at `path`; the distances of the bricks whose keys are in
+    `distances_of` only, if given (the others' are None)."""
     data = open(path, "rb").read()
     if data[:8] != MAGIC:
         raise SpecError("bad magic")
@@ -83,26 +88,38 @@ def read(path):
         raise SpecError(f"brick {shift}/{edge}, codec {codec}, layers {layers}")
     if any(d == 0 or d % 8 or d > 1 << 24 for d in dims) or not 0 < voxel_size < float("inf"):
         raise SpecError(f"grid {dims}, voxel size {voxel_size}")
-    if any(not abs(o) < float("inf") for o in origin) or any(data[152:188]):
+    dictionary_bytes, dictionary_crc = u64(152), u32(184)
+    if any(not abs(o) < float("inf") for o in origin) or any(data[160:184]):
         raise SpecError("origin not finite, or reserved bytes not zero")
+    if version < 5 and (dictionary_bytes or dictionary_crc) or dictionary_bytes > MAX_DICTIONARY_BYTES:
+        raise SpecError(f"a dictionary of {dictionary_bytes} bytes in version {version}")
+    payload_offset = HEADER_BYTES + dictionary_bytes
+    dictionary = data[HEADER_BYTES:payload_offset]
+    if zlib.crc32(dictionary) != dictionary_crc:
+        raise SpecError("dictionary CRC")
+    # zstd takes bytes without the dictionary magic as raw content, as this does. (Whether
+    # zstd can load it is found when the first brick is decompressed: a file without bricks
+    # is not checked for it.)
+    zdict = zstandard.ZstdCompressionDict(dictionary) if dictionary else None
     names = ["surface_voxels", "inner_voxels", "bricks_stored", "inside_tile_bricks", "inside_runs",
              "payload_offset", "payload_bytes", "index_offset", "runs_offset", "file_bytes"]
     counts = {n: u64(64 + 8 * i) for i, n in enumerate(names)}
+    counts["dictionary_bytes"] = dictionary_bytes
     # The layout follows from the counts.
-    index_offset = (HEADER_BYTES + counts["payload_bytes"] + 7) // 8 * 8
+    index_offset = (payload_offset + counts["payload_bytes"] + 7) // 8 * 8
     runs_offset = index_offset + 24 * counts["bricks_stored"]
     file_bytes = runs_offset + 16 * counts["inside_runs"]
-    want = (HEADER_BYTES, index_offset, runs_offset, file_bytes, len(data))
+    want = (payload_offset, index_offset, runs_offset, file_bytes, len(data))
     got = (counts["payload_offset"], counts["index_offset"], counts["runs_offset"], counts["file_bytes"], file_bytes)
     if want != got:
         raise SpecError(f"layout {got}, expected {want}")
     if zlib.crc32(data[index_offset:runs_offset]) != u32(144) or zlib.crc32(data[runs_offset:]) != u32(148):
         raise SpecError("index or run table CRC")
-    if any(data[HEADER_BYTES + counts["payload_bytes"] : index_offset]):
+    if any(data[payload_offset + counts["payload_bytes"] : index_offset]):
         raise SpecError("padding before the index not zero")
     vxm = VxmFile(version, origin, voxel_size, dims, layers, counts)
     nb = vxm.brick_dims
-    next_offset, last_key = HEADER_BYTES, -1
+    next_offset, last_key = payload_offset, -1
     for i in range(counts["bricks_stored"]):
         key, offset, length, crc = struct.unpack_from("<QQII", data, index_offset + 24 * i)
         if key <= last_key or key >= nb[0] * nb[1] * nb[2] or offset != next_offset:
@@ -112,9 +129,10 @@ def read(path):
         payload = data[offset : offset + length]
         if zlib.crc32(payload) != crc:
             raise SpecError(f"brick {key}: payload CRC")
-        vxm.bricks[key] = decode_payload(payload, codec, layers)
+        with_distances = distances_of is None or key in distances_of
+        vxm.bricks[key] = decode_payload(payload, codec, layers, zdict, with_distances)
         next_offset, last_key = offset + length, key
-    if next_offset != HEADER_BYTES + counts["payload_bytes"]:
+    if next_offset != payload_offset + counts["payload_bytes"]:
         raise SpecError("payloads do not tile their section")
     for i in range(counts["inside_runs"]):
         start, end = struct.unpack_from("<QQ", data, runs_offset + 16 * i)
@@ -151,13 +169,16 @@ def unzigzag(z):
     return (z >> 1) ^ -(z & 1)
 
 
-def decode_payload(payload, codec, layers):
+def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
     frame = ZSTD_MAGIC + payload
-    if zstandard.get_frame_parameters(frame).content_size == zstandard.CONTENTSIZE_UNKNOWN:
-        raise SpecError("a frame without its content size")
+    params = zstandard.get_frame_parameters(frame)
+    if params.content_size == zstandard.CONTENTSIZE_UNKNOWN or params.dict_id != 0:
+        raise SpecError("a frame without its content size, or with a dictionary id")
     try:
-        # Exactly one frame: no bytes, and no second frame, after it.
-        raw = zstandard.ZstdDecompressor().decompress(frame, allow_extra_data=False)
+        # Exactly one frame: no bytes, and no second frame, after it. Codec 5's with the
+        # file's dictionary, if it has one.
+        decompressor = zstandard.ZstdDecompressor(dict_data=zdict) if codec == 5 and zdict else zstandard.ZstdDecompressor()
+        raw = decompressor.decompress(frame, allow_extra_data=False)
     except zstandard.ZstdError as e:
         raise SpecError(f"not one zstd frame: {e}") from e
     lengths = {1: VOXELS, 2: 3 * VOXELS}
@@ -169,7 +190,7 @@ def decode_payload(payload, codec, layers):
         values[i] = wrap(raw[i] + (0 if p is None else values[p]), 8)
     if any(abs(v) > layers + 1 for v in values):
         raise SpecError("a value beyond the layers")
-    if codec == 1:
+    if codec == 1 or not with_distances:
         return values, None
     stored = [v >= -1 for v in values]
     reach = (layers + 0.5) * 32

@@ -60,10 +60,10 @@ fn a_ball_pressed_and_slid_on_a_slab_feels_a_smooth_force() {
     }
 }
 
-/// A voxmap with distances written as a version 4 file and mapped gives the same forces, bit
+/// A voxmap with distances written as a version 5 file and mapped gives the same forces, bit
 /// for bit, as in memory; the same voxmap without distances (version 1) falls back to layers.
 #[test]
-fn a_version_4_file_queries_as_the_voxmap_in_memory() {
+fn a_version_5_file_queries_as_the_voxmap_in_memory() {
     let p = distance_fixture();
     let vps::haptics::VoxmapSource::Memory(vm) = p.voxmap.source() else {
         panic!("the fixture is in memory");
@@ -374,7 +374,7 @@ proptest::proptest! {
     /// duplicates, open parts) with 0 to 3 layers, so a reach of half a voxel to 3½, a soup
     /// pointshell coarser or finer than the map, any pose (about half the cases touch). The
     /// culled walk is the brute force's, bit for bit, with every penetration; a time-critical
-    /// answer is within its bound; and the voxmap written to a file (codec 4, which leaves
+    /// answer is within its bound; and the voxmap written to a file (codec 5, which leaves
     /// distances out by the layer) and mapped again gives the same bits.
     #[test]
     fn culled_walk_equals_brute_force_on_soups_with_few_layers(

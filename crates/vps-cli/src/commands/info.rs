@@ -33,7 +33,9 @@ fn voxmap_info(path: &Path, json: bool) -> Result<()> {
     let g = h.grid;
     let c = h.counts;
     let uncompressed = h.uncompressed_bytes();
-    let ratio = uncompressed as f64 / h.payload_bytes.max(1) as f64;
+    // The payloads need their dictionary, so it counts with them.
+    let compressed = h.payload_bytes + h.dictionary_bytes;
+    let ratio = uncompressed as f64 / compressed.max(1) as f64;
     if json {
         let j = json!({
             "format_version": h.version,
@@ -48,10 +50,11 @@ fn voxmap_info(path: &Path, json: bool) -> Result<()> {
             "inside_tile_bricks": c.inside_tile_bricks,
             "inside_runs": h.inside_runs,
             "payload_bytes": h.payload_bytes,
+            "dictionary_bytes": h.dictionary_bytes,
             "file_bytes": h.file_bytes,
             "uncompressed_bytes": uncompressed,
             "compression_ratio": ratio,
-            "bytes_per_stored_voxel": h.payload_bytes as f64 / uncompressed.max(1) as f64,
+            "bytes_per_stored_voxel": compressed as f64 / uncompressed.max(1) as f64,
         });
         outln!("{j}");
     } else {

@@ -14,12 +14,21 @@ fn flipping_any_byte_of_a_file_with_distances_is_caught() {
     flipping_any_byte_of(&ball_with_distances(1, 5.0));
 }
 
+/// Version 5 with a dictionary: the dictionary's bytes too.
+#[test]
+fn flipping_any_byte_of_a_file_with_a_dictionary_is_caught() {
+    flipping_any_byte_of_file(&super::semantics::with_a_small_dictionary().1);
+}
+
 fn flipping_any_byte_of(vm: &Voxmap) {
     let dir = tmp();
-    let (_, good) = written(dir.path(), vm);
+    flipping_any_byte_of_file(&written(dir.path(), vm).1);
+}
+
+fn flipping_any_byte_of_file(good: &[u8]) {
     assert!(good.len() < 20_000, "{}", good.len());
     for i in 0..good.len() {
-        let mut bad = good.clone();
+        let mut bad = good.to_vec();
         bad[i] ^= 0x10;
         match VoxmapFile::from_bytes(&bad) {
             Err(_) => {}
@@ -33,6 +42,65 @@ fn flipping_any_byte_of(vm: &Voxmap) {
                 }
             }
         }
+    }
+}
+
+/// A version 5 file's dictionary: a flipped byte fails its checksum at open, one that zstd
+/// cannot load is named, and the dictionary's fields are refused where they do not belong.
+#[test]
+fn a_damaged_dictionary_is_named() {
+    let dir = tmp();
+    let (_, good) = written(dir.path(), &ball_with_distances(3, 60.0));
+    let h = header_of(&good);
+    assert!(h.dictionary_bytes > 1000, "{}", h.dictionary_bytes);
+    assert_eq!(h.payload_offset, HEADER_BYTES as u64 + h.dictionary_bytes);
+    let dictionary = HEADER_BYTES..HEADER_BYTES + h.dictionary_bytes as usize;
+    assert_eq!(good[dictionary.start..dictionary.start + 4], [0x37, 0xA4, 0x30, 0xEC]);
+    let opened = |bytes: &[u8]| VoxmapFile::from_bytes(bytes).map(|f| f.verify());
+
+    let mut bad = good.clone();
+    bad[dictionary.start + 100] ^= 0x10;
+    let e = opened(&bad).unwrap_err();
+    assert!(
+        matches!(&e, StorageError::Corrupt { what, .. } if what.contains("dictionary")),
+        "{e}"
+    );
+
+    // Entropy tables zstd cannot read, under a checksum that matches them.
+    let mut bad = good.clone();
+    bad[dictionary.start + 8..dictionary.start + 40].fill(0xFF);
+    let mut h2 = h;
+    h2.dictionary_crc = crc32fast::hash(&bad[dictionary.clone()]);
+    h2.header_crc = h2.compute_crc();
+    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h2));
+    let e = opened(&bad).unwrap_err();
+    assert!(
+        matches!(&e, StorageError::Corrupt { what, .. } if what.contains("does not load")),
+        "{e}"
+    );
+
+    // Beyond the limit, or in a version 4 header, or only its checksum there.
+    for edit in [
+        (|h: &mut RawHeader| h.dictionary_bytes = (1 << 16) + 8) as fn(&mut RawHeader),
+        |h| (h.version, h.codec) = (4, 4),
+        |h| (h.version, h.codec, h.dictionary_bytes, h.payload_offset) = (4, 4, 0, HEADER_BYTES as u64),
+    ] {
+        let mut h3 = h;
+        edit(&mut h3);
+        h3.header_crc = h3.compute_crc();
+        let mut bad = good.clone();
+        bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h3));
+        let e = opened(&bad).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                StorageError::InvalidHeader {
+                    field: "dictionary_bytes",
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 }
 

@@ -258,8 +258,11 @@ fn write_fuzz_seeds() {
         ),
     ];
     let dir = tmp();
-    for (name, vm) in seeds {
-        let (_, bytes) = written(dir.path(), &vm);
+    let seeds = seeds
+        .into_iter()
+        .map(|(name, vm)| (name, written(dir.path(), &vm).1))
+        .chain([("ball-dictionary", super::semantics::with_a_small_dictionary().1)]);
+    for (name, bytes) in seeds {
         // Larger files only with mode 1, to keep the committed seeds (fuzz/seeds) small.
         let modes: &[u8] = if bytes.len() > 4096 { &[1] } else { &[0, 1] };
         for &mode in modes {

@@ -60,15 +60,15 @@ pub(super) fn exercise(file: &VoxmapFile) {
     }
 }
 
-/// A voxmap with distances is written as version 4 and read back whole, distances included;
-/// one without stays version 1; a version 4 header naming codec 1, 2 or 3 is refused.
+/// A voxmap with distances is written as version 5 and read back whole, distances included;
+/// one without stays version 1; a version 5 header naming codec 1 to 4 is refused.
 #[test]
-fn version_4_carries_the_distances_and_version_1_stays() {
+fn version_5_carries_the_distances_and_version_1_stays() {
     let dir = tmp();
     let with = ball_with_distances(2, 9.0);
     let (path, bytes) = written(dir.path(), &with);
     let file = VoxmapFile::open(&path).unwrap();
-    assert_eq!(file.header().version, 4);
+    assert_eq!(file.header().version, 5);
     assert!(file.header().has_distances());
     assert_same(&file, &with);
     assert_eq!(file.to_voxmap().unwrap(), with);
@@ -92,7 +92,7 @@ fn version_4_carries_the_distances_and_version_1_stays() {
     assert!(!vps::CachedVoxmap::open(&path1).unwrap().has_distances());
     assert!(bytes.len() > bytes1.len());
 
-    for codec in [1, 2, 3] {
+    for codec in [1, 2, 3, 4] {
         let mut h = header_of(&bytes);
         h.codec = codec;
         h.header_crc = h.compute_crc();
@@ -102,7 +102,7 @@ fn version_4_carries_the_distances_and_version_1_stays() {
         assert!(matches!(e, StorageError::InvalidHeader { field: "codec", .. }), "{e}");
     }
 
-    // A writer refuses distances out of range, and bricks without distances in version 4.
+    // A writer refuses distances out of range, and bricks without distances in version 5.
     let mut w = VoxmapWriter::create(dir.path().join("b.vxm"), *with.grid(), 2).unwrap();
     w.with_distances().unwrap();
     assert!(w.push_bricks(with.bricks()).is_err());
@@ -387,24 +387,48 @@ fn forged_header_base() -> &'static [u8] {
     })
 }
 
-/// The bytes of a file of `vm` in an older version with distances, 2 or 3, as the builds
-/// before version 4 wrote them: the header and the run table of `v4`, the version 4 file of
-/// `vm`, around payloads of codec 2 (`distances` whole) or 3 (those a contact reads).
-fn older_version_of(v4: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances], version: u32) -> Vec<u8> {
-    use vps::storage::codec::{encode_brick_with_distances, encode_brick_with_read_distances, new_compressor};
-    use vps::storage::format::IndexEntry;
+/// The bytes of a file of `vm` in an older version with distances, 2, 3 or 4, as the builds
+/// before wrote them: the header and the run table of `latest`, the version 5 file of `vm`,
+/// around payloads of codec 2 (`distances` whole), 3 (those a contact reads) or 4 (those, by
+/// the median, with no dictionary).
+fn older_version_of(latest: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDistances], version: u32) -> Vec<u8> {
+    use vps::storage::codec::{
+        encode_brick_with_distances, encode_brick_with_median_distances, encode_brick_with_read_distances,
+        new_compressor,
+    };
     let encode = match version {
         2 => encode_brick_with_distances,
         3 => encode_brick_with_read_distances,
+        4 => encode_brick_with_median_distances,
         _ => panic!("version {version}"),
     };
-    let mut h = header_of(v4);
-    let runs = v4[h.runs_offset as usize..].to_vec();
     let mut c = new_compressor().unwrap();
+    reassembled(latest, vm, version, &[], |i, b| {
+        encode(&mut c, &b.values, &distances[i]).unwrap()
+    })
+}
+
+/// The bytes of a file of `vm` with the header and run table of `latest`, its version 5 file:
+/// as `version`, `dictionary` after the header, and the payload of brick `i` made by
+/// `payload(i, brick)`.
+pub(crate) fn reassembled(
+    latest: &[u8],
+    vm: &Voxmap,
+    version: u32,
+    dictionary: &[u8],
+    mut payload: impl FnMut(usize, &Brick) -> Vec<u8>,
+) -> Vec<u8> {
+    use vps::storage::format::IndexEntry;
+    let mut h = header_of(latest);
+    let runs = latest[h.runs_offset as usize..].to_vec();
     let mut out = vec![0u8; HEADER_BYTES];
+    out.extend_from_slice(dictionary);
+    h.dictionary_bytes = dictionary.len() as u64;
+    h.dictionary_crc = crc32fast::hash(dictionary);
+    h.payload_offset = out.len() as u64;
     let mut index = Vec::new();
-    for (b, d) in vm.bricks().iter().zip(distances) {
-        let p = encode(&mut c, &b.values, d).unwrap();
+    for (i, b) in vm.bricks().iter().enumerate() {
+        let p = payload(i, b);
         index.push(IndexEntry {
             key: b.key,
             offset: out.len() as u64,
@@ -413,7 +437,7 @@ fn older_version_of(v4: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDista
         });
         out.extend(p);
     }
-    h.payload_bytes = (out.len() - HEADER_BYTES) as u64;
+    h.payload_bytes = out.len() as u64 - h.payload_offset;
     out.resize(out.len().next_multiple_of(8), 0);
     h.index_offset = out.len() as u64;
     out.extend_from_slice(bytemuck::cast_slice(&index));
@@ -428,16 +452,59 @@ fn older_version_of(v4: &[u8], vm: &Voxmap, distances: &[vps::voxmap::BrickDista
     out
 }
 
+/// The version 5 file of a small ball with a small dictionary (2 KiB, trained on a larger
+/// ball's frames), as the writer makes for files of thousands of bricks: small enough for a
+/// fuzzing seed.
+pub(crate) fn with_a_small_dictionary() -> (Voxmap, Vec<u8>) {
+    use vps::storage::codec::{compress_frame, median_frame, new_compressor_with, ZSTD_LEVEL};
+    let frames_of = |vm: &Voxmap| -> Vec<Vec<u8>> {
+        vm.bricks()
+            .iter()
+            .zip(vm.distances().unwrap())
+            .map(|(b, d)| median_frame(&b.values, d).unwrap())
+            .collect()
+    };
+    let dictionary = zstd::dict::from_samples(&frames_of(&ball_with_distances(2, 24.0)), 2048).unwrap();
+    let prepared = zstd::dict::EncoderDictionary::copy(&dictionary, ZSTD_LEVEL);
+    let mut c = new_compressor_with(&prepared).unwrap();
+    let vm = ball_with_distances(2, 5.0);
+    let dir = tmp();
+    let (_, latest) = written(dir.path(), &vm);
+    let frames = frames_of(&vm);
+    let bytes = reassembled(&latest, &vm, VERSION, &dictionary, |i, _| {
+        compress_frame(&mut c, &frames[i]).unwrap()
+    });
+    (vm, bytes)
+}
+
+/// A version 5 file with a dictionary reads as the voxmap, and its payloads need the
+/// dictionary: without it (the header saying there is none) the bricks do not decode.
+#[test]
+fn a_file_with_a_dictionary_reads_as_the_voxmap() {
+    let (vm, bytes) = with_a_small_dictionary();
+    let file = VoxmapFile::from_bytes(&bytes).unwrap();
+    file.verify().unwrap();
+    assert_eq!(file.to_voxmap().unwrap(), vm);
+    let h = header_of(&bytes);
+    let without = reassembled(&bytes, &vm, VERSION, &[], |i, _| {
+        let e = &file.index().unwrap()[i];
+        bytes[e.offset as usize..][..e.len as usize].to_vec()
+    });
+    assert_eq!(without.len(), bytes.len() - h.dictionary_bytes as usize);
+    let e = VoxmapFile::from_bytes(&without).unwrap().verify().unwrap_err();
+    assert!(matches!(e, StorageError::Decompress { .. }), "{e}");
+}
+
 /// A version 2 file, which stored every distance, still opens and verifies, and reads as the
 /// same voxmap in memory: the distances no contact reads replaced by the bounds of their
-/// layers, as versions 3 and 4 give them. Written again, it is a smaller version 4 file.
+/// layers, as later versions give them. Written again, it is a smaller version 5 file.
 #[test]
 fn a_version_2_file_reads_as_the_voxmap_in_memory() {
     let dir = tmp();
     let vm = ball_with_distances(3, 9.0);
-    let (_, v4) = written(dir.path(), &vm);
+    let (_, v5) = written(dir.path(), &vm);
     let exact = ball_distances(&vm, 9.0);
-    let v2 = older_version_of(&v4, &vm, &exact, 2);
+    let v2 = older_version_of(&v5, &vm, &exact, 2);
     let file = VoxmapFile::from_bytes(&v2).unwrap();
     assert_eq!(file.header().version, 2);
     assert!(file.header().has_distances());
@@ -450,21 +517,25 @@ fn a_version_2_file_reads_as_the_voxmap_in_memory() {
         .map(|(e, d)| e.iter().zip(d).filter(|(e, d)| e != d).count())
         .sum::<usize>();
     assert!(replaced > 1_000, "{replaced} distances replaced");
-    assert!(v4.len() < v2.len(), "{} against {}", v4.len(), v2.len());
+    assert!(v5.len() < v2.len(), "{} against {}", v5.len(), v2.len());
 }
 
-/// A version 3 file, whose distances follow the previous voxel, still opens and verifies, and
-/// reads as the same voxmap in memory; its version 4 twin is smaller.
+/// A version 3 file, whose distances follow the previous voxel, and a version 4 file, whose
+/// distances a median predicts and which has no dictionary, still open and verify, and read
+/// as the same voxmap in memory; their version 5 twin is smaller, or, where no dictionary
+/// pays for itself (this small ball), as small as version 4.
 #[test]
-fn a_version_3_file_reads_as_the_voxmap_in_memory() {
+fn version_3_and_4_files_read_as_the_voxmap_in_memory() {
     let dir = tmp();
     let vm = ball_with_distances(3, 9.0);
-    let (_, v4) = written(dir.path(), &vm);
-    let v3 = older_version_of(&v4, &vm, vm.distances().unwrap(), 3);
-    let file = VoxmapFile::from_bytes(&v3).unwrap();
-    assert_eq!(file.header().version, 3);
-    assert!(file.header().has_distances());
-    file.verify().unwrap();
-    assert_eq!(file.to_voxmap().unwrap(), vm);
-    assert!(v4.len() < v3.len(), "{} against {}", v4.len(), v3.len());
+    let (_, v5) = written(dir.path(), &vm);
+    for version in [3, 4] {
+        let old = older_version_of(&v5, &vm, vm.distances().unwrap(), version);
+        let file = VoxmapFile::from_bytes(&old).unwrap();
+        assert_eq!(file.header().version, version);
+        assert!(file.header().has_distances());
+        file.verify().unwrap();
+        assert_eq!(file.to_voxmap().unwrap(), vm);
+        assert!(v5.len() <= old.len(), "{} against {}", v5.len(), old.len());
+    }
 }

@@ -8,9 +8,10 @@ use crate::voxmap::{
     BrickValues,
 };
 
+use super::dictionary::Dictionary;
 use super::format::{
-    CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DISTANCE, MAX_PAYLOAD_BYTES,
-    MAX_PAYLOAD_BYTES_DISTANCE, MAX_PAYLOAD_BYTES_MEDIAN,
+    CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DICTIONARY,
+    CODEC_ZSTD_MEDIAN_DISTANCE, MAX_PAYLOAD_BYTES, MAX_PAYLOAD_BYTES_DISTANCE, MAX_PAYLOAD_BYTES_MEDIAN,
 };
 use super::median;
 
@@ -182,16 +183,39 @@ pub fn encode_brick_with_median_distances(
     values: &BrickValues,
     distances: &BrickDistances,
 ) -> std::io::Result<Vec<u8>> {
+    compress_frame(compressor, &median_frame(values, distances)?)
+}
+
+/// The frame of codecs 4 and 5 before compression: the value residuals, then the residual
+/// stream of the distances (`median.rs`).
+pub fn median_frame(values: &BrickValues, distances: &BrickDistances) -> std::io::Result<Vec<u8>> {
     let mut raw = Vec::with_capacity(2 * BRICK_VOXELS);
     raw.extend_from_slice(&predict(values));
     median::encode(values, distances, &mut raw).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
-    payload_of(compressor, &raw, MAX_PAYLOAD_BYTES_MEDIAN)
+    Ok(raw)
+}
+
+/// Compress a [`median_frame`] into a payload of codec 4, or of codec 5 with a compressor
+/// made by [`new_compressor_with`] the file's dictionary.
+pub fn compress_frame(compressor: &mut zstd::bulk::Compressor<'_>, frame: &[u8]) -> std::io::Result<Vec<u8>> {
+    payload_of(compressor, frame, MAX_PAYLOAD_BYTES_MEDIAN)
 }
 
 /// A zstd compressor set up as the writer uses it.
 pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
-    let mut c = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
-    // The index holds a CRC per payload, so zstd's own checksum would only cost bytes.
+    set_up(zstd::bulk::Compressor::new(ZSTD_LEVEL)?)
+}
+
+/// [`new_compressor`] with a dictionary prepared at [`ZSTD_LEVEL`], for codec 5.
+pub fn new_compressor_with<'a>(
+    dictionary: &'a zstd::dict::EncoderDictionary<'_>,
+) -> std::io::Result<zstd::bulk::Compressor<'a>> {
+    set_up(zstd::bulk::Compressor::with_prepared_dictionary(dictionary)?)
+}
+
+fn set_up(mut c: zstd::bulk::Compressor<'_>) -> std::io::Result<zstd::bulk::Compressor<'_>> {
+    // The index holds a CRC per payload, so zstd's own checksum would only cost bytes; a
+    // file has one dictionary, so its id would too.
     c.include_checksum(false)?;
     c.include_dictid(false)?;
     // The content size lets zstd reject a frame that claims other than 512 bytes early.
@@ -202,7 +226,7 @@ pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
 /// Per-thread decompression state: creating a zstd context costs more than decompressing
 /// a brick, and the frame buffer is where a payload gets its magic number back.
 struct DecodeState {
-    zstd: zstd::bulk::Decompressor<'static>,
+    zstd: zstd::zstd_safe::DCtx<'static>,
     frame: Vec<u8>,
 }
 
@@ -231,7 +255,7 @@ pub enum DecodeError {
 
 /// Decompress `payload` (a frame without its magic) into `out`, which it must fill exactly.
 fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeError> {
-    let n = decompress_into(payload, out, max)?;
+    let n = decompress_into(payload, out, max, None)?;
     if n != out.len() {
         return Err(DecodeError::Malformed(format!(
             "decompressed to {n} bytes instead of {}",
@@ -241,8 +265,14 @@ fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeEr
     Ok(())
 }
 
-/// Decompress `payload` (a frame without its magic) into the start of `out`: its length.
-fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, DecodeError> {
+/// Decompress `payload` (a frame without its magic) into the start of `out`, with
+/// `dictionary` if given: its length.
+fn decompress_into(
+    payload: &[u8],
+    out: &mut [u8],
+    max: usize,
+    dictionary: Option<&Dictionary>,
+) -> Result<usize, DecodeError> {
     if payload.len() > max {
         return Err(DecodeError::Malformed(format!(
             "payload of {} bytes exceeds the limit of {max}",
@@ -255,7 +285,7 @@ fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, 
             let state = match &mut *slot {
                 Some(state) => state,
                 empty => empty.insert(DecodeState {
-                    zstd: zstd::bulk::Decompressor::new().map_err(|e| format!("zstd: {e}"))?,
+                    zstd: zstd::zstd_safe::DCtx::try_create().ok_or("zstd: no decompression context")?,
                     frame: Vec::with_capacity(MAX_PAYLOAD_BYTES_MEDIAN + 4),
                 }),
             };
@@ -269,10 +299,17 @@ fn decompress_into(payload: &[u8], out: &mut [u8], max: usize) -> Result<usize, 
             if !whole || !matches!(zstd::zstd_safe::get_frame_content_size(&state.frame), Ok(Some(_))) {
                 return Err("not one zstd frame with its content size".into());
             }
-            state
-                .zstd
-                .decompress_to_buffer(&state.frame[..], &mut *out)
-                .map_err(|e| format!("zstd: {e}"))
+            // A file has one dictionary or none, so a frame names none.
+            if zstd::zstd_safe::get_dict_id_from_frame(&state.frame).is_some() {
+                return Err("a zstd frame that names a dictionary".into());
+            }
+            match dictionary {
+                Some(d) => state
+                    .zstd
+                    .decompress_using_ddict(&mut *out, &state.frame[..], d.ddict()),
+                None => state.zstd.decompress(&mut *out, &state.frame[..]),
+            }
+            .map_err(|code| format!("zstd: {}", zstd::zstd_safe::get_error_name(code)))
         })
         .map_err(DecodeError::Malformed)?;
     Ok(n)
@@ -331,8 +368,9 @@ fn values_of_frame(
     raw: &mut [u8],
     max: usize,
     layers: u8,
+    dictionary: Option<&Dictionary>,
 ) -> Result<(BrickValues, usize), DecodeError> {
-    let n = decompress_into(payload, raw, max)?;
+    let n = decompress_into(payload, raw, max, dictionary)?;
     if n < BRICK_VOXELS {
         return Err(DecodeError::Malformed(format!(
             "decompressed to {n} bytes, fewer than the {BRICK_VOXELS} values"
@@ -350,7 +388,7 @@ pub fn decode_brick_with_read_distances(
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; DISTANCE_FRAME_BYTES];
-    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE, layers)?;
+    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_DISTANCE, layers, None)?;
     // Summed in u16 lanes: `filter().count()` widens every lane to 64 bits.
     let read = values.iter().map(|&v| distance_is_read(v) as u16).sum::<u16>() as usize;
     if n != BRICK_VOXELS + 2 * read {
@@ -389,8 +427,18 @@ pub fn decode_brick_with_median_distances(
     payload: &[u8],
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
+    decode_brick_with_dictionary(payload, layers, None)
+}
+
+/// Decompress one payload of codec 5, with the file's `dictionary` if it has one: as
+/// [`decode_brick_with_median_distances`] once decompressed.
+pub fn decode_brick_with_dictionary(
+    payload: &[u8],
+    layers: u8,
+    dictionary: Option<&Dictionary>,
+) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut raw = [0u8; MEDIAN_FRAME_BYTES];
-    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, layers)?;
+    let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, layers, dictionary)?;
     let d = median::decode(&values, &raw[BRICK_VOXELS..n]).map_err(DecodeError::Malformed)?;
     let d = checked_distances(&values, d, layers)?;
     Ok((values, d))
@@ -424,13 +472,18 @@ pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u
     Some(format!("voxel {voxel} has distance {} steps, {why}", d[voxel]))
 }
 
-/// Decode a payload of `codec`: the values, and the distances for codecs 2, 3 and 4.
+/// Decode a payload of `codec`: the values, and the distances for codecs 2 to 5; codec 5's
+/// with the file's `dictionary`, if it has one (the others take none).
 pub fn decode_payload(
     payload: &[u8],
     layers: u8,
     codec: u8,
+    dictionary: Option<&Dictionary>,
 ) -> Result<(BrickValues, Option<BrickDistances>), DecodeError> {
     match codec {
+        CODEC_ZSTD_MEDIAN_DICTIONARY => {
+            decode_brick_with_dictionary(payload, layers, dictionary).map(|(v, d)| (v, Some(d)))
+        }
         CODEC_ZSTD_MEDIAN_DISTANCE => decode_brick_with_median_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         CODEC_ZSTD_DELTA_READ_DISTANCE => decode_brick_with_read_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         CODEC_ZSTD_DELTA_DISTANCE => decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d))),

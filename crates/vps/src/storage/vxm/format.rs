@@ -14,8 +14,12 @@ pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
 /// The newest format version, which this crate writes for a voxmap with signed distances:
 /// every payload holds the brick's values and the distances a contact can read, predicted by
-/// a median (codec 4).
-pub const VERSION: u32 = 4;
+/// a median, compressed with a zstd dictionary stored in the file (codec 5).
+pub const VERSION: u32 = 5;
+
+/// The version of the files whose payloads are codec 5's frames compressed without a
+/// dictionary (codec 4), which this crate still reads.
+pub const VERSION_MEDIAN: u32 = 4;
 
 /// The version of the files whose payloads hold the distances a contact can read after the
 /// previous-voxel predictor (codec 3), which this crate still reads.
@@ -60,10 +64,19 @@ pub const CODEC_ZSTD_DELTA_READ_DISTANCE: u8 = 3;
 /// [`encode_brick_with_median_distances`](super::codec::encode_brick_with_median_distances)).
 pub const CODEC_ZSTD_MEDIAN_DISTANCE: u8 = 4;
 
+/// Codec id of version 5: the frames of [`CODEC_ZSTD_MEDIAN_DISTANCE`], compressed with the
+/// file's zstd dictionary, if it has one (see [`super::dictionary::DICTIONARY_BYTES`]).
+pub const CODEC_ZSTD_MEDIAN_DICTIONARY: u8 = 5;
+
+/// The largest zstd dictionary a file may hold; the writer makes one of at most
+/// [`super::dictionary::DICTIONARY_BYTES`].
+pub const MAX_DICTIONARY_BYTES: u64 = 1 << 16;
+
 /// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
 pub fn codec_of(version: u32) -> u8 {
     match version {
-        VERSION => CODEC_ZSTD_MEDIAN_DISTANCE,
+        VERSION => CODEC_ZSTD_MEDIAN_DICTIONARY,
+        VERSION_MEDIAN => CODEC_ZSTD_MEDIAN_DISTANCE,
         VERSION_READ_DISTANCES => CODEC_ZSTD_DELTA_READ_DISTANCE,
         VERSION_ALL_DISTANCES => CODEC_ZSTD_DELTA_DISTANCE,
         _ => CODEC_ZSTD_DELTA,
@@ -72,7 +85,10 @@ pub fn codec_of(version: u32) -> u8 {
 
 /// Whether files of `version` carry distances.
 pub fn has_distances(version: u32) -> bool {
-    matches!(version, VERSION | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES)
+    matches!(
+        version,
+        VERSION | VERSION_MEDIAN | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES
+    )
 }
 
 /// Largest payload a valid file can hold. zstd's worst case for 512 bytes is 577, so
@@ -83,15 +99,15 @@ pub const MAX_PAYLOAD_BYTES: usize = 1024;
 /// case is under 1,600).
 pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
 
-/// Largest payload of codec 4, whose frames hold at most 2,048 bytes (512 values and 512
-/// escaped residuals of three bytes; zstd's worst case is under 2,100).
+/// Largest payload of codecs 4 and 5, whose frames hold at most 2,048 bytes (512 values and
+/// 512 escaped residuals of three bytes; zstd's worst case is under 2,100).
 pub const MAX_PAYLOAD_BYTES_MEDIAN: usize = 2560;
 
 /// The payload limit of `codec`.
 pub fn max_payload_bytes(codec: u8) -> usize {
     match codec {
         CODEC_ZSTD_DELTA => MAX_PAYLOAD_BYTES,
-        CODEC_ZSTD_MEDIAN_DISTANCE => MAX_PAYLOAD_BYTES_MEDIAN,
+        CODEC_ZSTD_MEDIAN_DISTANCE | CODEC_ZSTD_MEDIAN_DICTIONARY => MAX_PAYLOAD_BYTES_MEDIAN,
         _ => MAX_PAYLOAD_BYTES_DISTANCE,
     }
 }
@@ -133,7 +149,7 @@ pub struct RawHeader {
     pub inside_tile_bricks: u64,
     /// Number of inside-run entries.
     pub inside_runs: u64,
-    /// Offset of the first payload: [`HEADER_BYTES`].
+    /// Offset of the first payload: [`HEADER_BYTES`], plus the dictionary's bytes in version 5.
     pub payload_offset: u64,
     /// Total bytes of all payloads, back to back.
     pub payload_bytes: u64,
@@ -147,10 +163,13 @@ pub struct RawHeader {
     pub index_crc: u32,
     /// CRC-32 of the inside-run table bytes.
     pub runs_crc: u32,
-    /// Zero in version 1.
-    pub reserved: [u64; 4],
-    /// Zero in version 1.
-    pub reserved2: u32,
+    /// Bytes of the zstd dictionary right after the header, in version 5 (0 for none); zero
+    /// before.
+    pub dictionary_bytes: u64,
+    /// Zero.
+    pub reserved: [u64; 3],
+    /// CRC-32 of the dictionary's bytes in version 5; zero before.
+    pub dictionary_crc: u32,
     /// CRC-32 of the first [`HEADER_CRC_COVERS`] header bytes.
     pub header_crc: u32,
 }
@@ -218,13 +237,14 @@ mod tests {
             offset_of!(RawHeader, file_bytes),
             offset_of!(RawHeader, index_crc),
             offset_of!(RawHeader, runs_crc),
+            offset_of!(RawHeader, dictionary_bytes),
             offset_of!(RawHeader, reserved),
-            offset_of!(RawHeader, reserved2),
+            offset_of!(RawHeader, dictionary_crc),
             offset_of!(RawHeader, header_crc),
         ];
         assert_eq!(
             o,
-            [8, 12, 16, 40, 48, 60, 62, 63, 64, 96, 104, 136, 144, 148, 152, 184, 188]
+            [8, 12, 16, 40, 48, 60, 62, 63, 64, 96, 104, 136, 144, 148, 152, 160, 184, 188]
         );
         assert_eq!(VERSION_OFFSET, offset_of!(RawHeader, version));
         assert_eq!(HEADER_CRC_COVERS, offset_of!(RawHeader, header_crc));

@@ -202,8 +202,20 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
     if h.layers > MAX_LAYERS {
         return Err(field("layers", format!("{}, at most {MAX_LAYERS}", h.layers)));
     }
-    if h.reserved != [0; 4] || h.reserved2 != 0 {
+    if h.reserved != [0; 3] {
         return Err(field("reserved", "not zero".into()));
+    }
+    if version != VERSION && (h.dictionary_bytes != 0 || h.dictionary_crc != 0) {
+        return Err(field(
+            "dictionary_bytes",
+            format!("a dictionary in a version {version} file: only version {VERSION} has one"),
+        ));
+    }
+    if h.dictionary_bytes > MAX_DICTIONARY_BYTES {
+        return Err(field(
+            "dictionary_bytes",
+            format!("{}, at most {MAX_DICTIONARY_BYTES}", h.dictionary_bytes),
+        ));
     }
     let grid = Grid {
         origin: DVec3::from_array(h.origin),
@@ -224,10 +236,12 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         )));
     }
     let overflow = |name: &'static str, what: &str| field(name, format!("{what} overflows 64 bits"));
-    if h.payload_offset != HEADER_BYTES as u64 {
+    // The dictionary, if any, lies between the header and the payloads.
+    let payload_offset = HEADER_BYTES as u64 + h.dictionary_bytes;
+    if h.payload_offset != payload_offset {
         return Err(field(
             "payload_offset",
-            format!("{}, expected {HEADER_BYTES}", h.payload_offset),
+            format!("{}, expected {payload_offset}", h.payload_offset),
         ));
     }
     let payload_end = h
@@ -261,6 +275,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         ));
     }
     let layout = Layout {
+        dictionary: HEADER_BYTES..to_usize(path, payload_offset, "payload offset")?,
         payload: to_usize(path, h.payload_offset, "payload offset")?..to_usize(path, payload_end, "payload end")?,
         index: to_usize(path, index_offset, "index offset")?..to_usize(path, index_end, "index end")?,
         runs: to_usize(path, index_end, "run table offset")?..to_usize(path, runs_end, "run table end")?,
@@ -272,6 +287,12 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
     }
     if bytemuck::try_cast_slice::<u8, RunEntry>(runs_bytes).is_err() {
         return Err(corrupt(path, "inside-run table is misaligned"));
+    }
+    let dictionary = bytes
+        .get(layout.dictionary.clone())
+        .ok_or_else(|| truncated(payload_offset))?;
+    if crc32fast::hash(dictionary) != h.dictionary_crc {
+        return Err(corrupt(path, "the zstd dictionary does not match its checksum"));
     }
     if crc32fast::hash(index_bytes) != h.index_crc {
         return Err(StorageError::IndexChecksum {
@@ -295,6 +316,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         },
         inside_runs: h.inside_runs,
         payload_bytes: h.payload_bytes,
+        dictionary_bytes: h.dictionary_bytes,
         file_bytes: h.file_bytes,
     };
     Ok((header, brick_count, layout))

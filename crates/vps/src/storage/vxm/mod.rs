@@ -12,6 +12,7 @@
 //! file or the new one, and readers that have the old one mapped keep reading it.
 
 pub mod codec;
+pub mod dictionary;
 pub mod format;
 mod header;
 mod median;
@@ -36,11 +37,13 @@ use crate::voxmap::{
     VoxmapCounts, MAX_LAYERS,
 };
 use codec::{
-    decode_payload, distance_fault, encode_brick, encode_brick_with_median_distances, new_compressor, DecodeError,
+    compress_frame, decode_payload, distance_fault, encode_brick, median_frame, new_compressor, new_compressor_with,
+    DecodeError, ZSTD_LEVEL,
 };
+use dictionary::{Dictionary, TRAINING_BRICKS};
 use format::{
     align8, codec_of, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
-    INDEX_ENTRY_BYTES, MAGIC, RUN_ENTRY_BYTES, VERSION, VERSION_LAYERS, VERSION_OFFSET,
+    INDEX_ENTRY_BYTES, MAGIC, MAX_DICTIONARY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
 pub(crate) use reader::Backing;
@@ -96,6 +99,106 @@ mod tests {
             }
         }
         w.finish()
+    }
+
+    /// A ball of `radius` voxels with `layers` layers and the exact signed distances of its
+    /// stored voxels, within the reach.
+    pub(super) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
+        let grid = Grid::around(DVec3::splat(-radius), DVec3::splat(radius), 1.0, layers as u32 + 2).unwrap();
+        let vm = Voxmap::from_signed_distance(grid, layers, |p| p.length() - radius);
+        let reach = crate::voxmap::distance_reach(layers);
+        let step = crate::voxmap::DISTANCE_STEP;
+        let distances = vm
+            .bricks()
+            .iter()
+            .map(|b| {
+                let base = grid.brick_coords(b.key).map(|c| c * 8);
+                std::array::from_fn(|i| {
+                    let v = [i & 7, i >> 3 & 7, i >> 6].map(|c| c as u32);
+                    let centre = grid.voxel_center([0, 1, 2].map(|a| base[a] + v[a]));
+                    let d = (radius - centre.length()).clamp(-reach, reach);
+                    (d / step).round() as i16
+                })
+            })
+            .collect();
+        vm.with_distances(distances)
+    }
+
+    /// `vm` written by a writer that trains its dictionary on `training` bricks, its bricks
+    /// pushed in batches of `batches` (the last repeated).
+    fn written_in_batches(vm: &Voxmap, training: usize, batches: &[usize]) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("b.vxm");
+        let mut w = VoxmapWriter::create(&path, *vm.grid(), vm.layers()).unwrap();
+        w.with_distances().unwrap();
+        w.training_bricks = training;
+        let (bricks, distances) = (vm.bricks(), vm.distances().unwrap());
+        let mut at = 0;
+        for &n in batches.iter().chain(std::iter::repeat(batches.last().unwrap())) {
+            if at >= bricks.len() {
+                break;
+            }
+            let end = (at + n).min(bricks.len());
+            w.push_bricks_with_distances(&bricks[at..end], &distances[at..end])
+                .unwrap();
+            at = end;
+        }
+        for &r in vm.inside_runs() {
+            w.push_inside_run(r).unwrap();
+        }
+        w.finish().unwrap();
+        std::fs::read(&path).unwrap()
+    }
+
+    /// Where the training bricks end among the batches changes nothing: the file is the same
+    /// bricks given one by one, in batches across the end of the training, or all at once;
+    /// with a dictionary or without, it reads back as the voxmap.
+    #[test]
+    fn the_dictionary_and_the_file_do_not_depend_on_the_batches() {
+        let vm = ball_with_distances(3, 60.0);
+        assert!(vm.bricks().len() > 1500, "{} bricks", vm.bricks().len());
+        let mut sizes = Vec::new();
+        for training in [40, 1500, 1 << 20] {
+            let whole = written_in_batches(&vm, training, &[usize::MAX]);
+            for batches in [&[1][..], &[39, 2, 100], &[1499, 1, 7]] {
+                assert!(
+                    whole == written_in_batches(&vm, training, batches),
+                    "training {training}, {batches:?}"
+                );
+            }
+            let file = VoxmapFile::from_bytes(&whole).unwrap();
+            let dictionary = file.layout.dictionary.len();
+            assert_eq!(file.to_voxmap().unwrap(), vm, "training {training}");
+            file.verify().unwrap();
+            sizes.push((dictionary, whole.len()));
+        }
+        // Forty bricks train no dictionary that pays; 1,500 or all of them do, and the file,
+        // its dictionary included, is smaller.
+        let [(none, plain), (some, smaller), (all, smallest)] = sizes[..] else {
+            unreachable!()
+        };
+        assert!(none == 0 && some > 0 && all > 0, "{sizes:?}");
+        assert!(smaller < plain && smallest < plain, "{sizes:?}");
+    }
+
+    /// Keys must strictly increase across calls while the first bricks wait for the
+    /// dictionary's training too, and the writer takes no `with_distances` once they come.
+    #[test]
+    fn bricks_kept_for_the_training_are_held_to_the_key_order() {
+        let vm = ball_with_distances(2, 9.0);
+        let (bricks, distances) = (vm.bricks(), vm.distances().unwrap());
+        assert!(bricks.len() > 10);
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = VoxmapWriter::create(dir.path().join("b.vxm"), *vm.grid(), vm.layers()).unwrap();
+        w.with_distances().unwrap();
+        w.push_bricks_with_distances(&bricks[5..10], &distances[5..10]).unwrap();
+        assert!(matches!(w.dictionary, writer::DictionaryState::Training(ref p) if p.len() == 5));
+        let earlier = w.push_bricks_with_distances(&bricks[..2], &distances[..2]);
+        assert!(matches!(earlier, Err(StorageError::InvalidInput { .. })), "{earlier:?}");
+        let again = w.push_bricks_with_distances(&bricks[9..10], &distances[9..10]);
+        assert!(matches!(again, Err(StorageError::InvalidInput { .. })), "{again:?}");
+        assert!(w.with_distances().is_err());
+        w.push_bricks_with_distances(&bricks[10..], &distances[10..]).unwrap();
     }
 
     #[test]

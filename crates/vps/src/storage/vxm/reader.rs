@@ -19,12 +19,14 @@ pub struct Header {
     pub inside_runs: u64,
     /// Total compressed bytes of the brick payloads.
     pub payload_bytes: u64,
+    /// Bytes of the zstd dictionary the payloads share (version 5; 0 for none).
+    pub dictionary_bytes: u64,
     /// Length of the file.
     pub file_bytes: u64,
 }
 
 impl Header {
-    /// Whether the file's bricks carry signed distances (versions 2, 3 and 4).
+    /// Whether the file's bricks carry signed distances (versions 2 to 5).
     pub fn has_distances(&self) -> bool {
         has_distances(self.version)
     }
@@ -85,6 +87,8 @@ impl Backing {
 /// Where the sections are, as validated byte ranges of the backing.
 #[derive(Clone, Debug)]
 pub(super) struct Layout {
+    /// The zstd dictionary of a version 5 file; empty if it has none.
+    pub(super) dictionary: Range<usize>,
     pub(super) payload: Range<usize>,
     pub(super) index: Range<usize>,
     pub(super) runs: Range<usize>,
@@ -98,6 +102,8 @@ pub struct VoxmapFile {
     pub(super) header: Header,
     pub(super) brick_count: u64,
     pub(super) layout: Layout,
+    /// The zstd dictionary of a version 5 file that has one, loaded at open.
+    pub(super) dictionary: Option<Arc<Dictionary>>,
 }
 
 impl std::fmt::Debug for VoxmapFile {
@@ -169,12 +175,20 @@ impl VoxmapFile {
 
     pub(super) fn from_backing(path: PathBuf, data: Backing) -> Result<VoxmapFile, StorageError> {
         let (header, brick_count, layout) = parse(&path, data.bytes())?;
+        let dictionary = match data.bytes().get(layout.dictionary.clone()) {
+            Some([]) => None,
+            Some(bytes) => Some(Arc::new(
+                Dictionary::load(bytes).ok_or_else(|| corrupt(&path, "zstd does not load the dictionary"))?,
+            )),
+            None => return Err(corrupt(&path, "the dictionary is out of bounds")),
+        };
         Ok(VoxmapFile {
             path,
             data,
             header,
             brick_count,
             layout,
+            dictionary,
         })
     }
 
@@ -236,7 +250,7 @@ impl VoxmapFile {
     ) -> Result<(BrickValues, Option<BrickDistances>), StorageError> {
         let payload = self.checked_payload(i, e)?;
         let codec = codec_of(self.header.version);
-        decode_payload(payload, self.header.layers, codec).map_err(|err| match err {
+        decode_payload(payload, self.header.layers, codec, self.dictionary.as_deref()).map_err(|err| match err {
             DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
                 path: self.path.clone(),
                 key: e.key,
@@ -264,9 +278,9 @@ impl VoxmapFile {
         let first = self.index().ok()?.first().copied();
         let e = first.filter(|e| e.len as usize <= max_payload_bytes(codec))?;
         let payload = self.checked_payload(0, &e).ok()?.to_vec();
-        let layers = self.header.layers;
+        let (layers, dictionary) = (self.header.layers, self.dictionary.clone());
         Some(move || {
-            let _ = decode_payload(&payload, layers, codec);
+            let _ = decode_payload(&payload, layers, codec, dictionary.as_deref());
         })
     }
 

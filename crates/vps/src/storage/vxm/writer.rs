@@ -21,7 +21,8 @@ pub struct WriteReport {
 }
 
 /// Bricks compressed per parallel batch: large enough to keep every core busy, small
-/// enough that a batch of payloads stays a few hundred kilobytes.
+/// enough that a batch of payloads stays a few hundred kilobytes (the frames kept for a
+/// version 5 file's dictionary, up to [`TRAINING_BRICKS`] of them, take about 3.3 MB).
 pub(super) const BATCH: usize = 4096;
 
 /// Index entries held in memory before they go to the spill file, when there is one (a few
@@ -99,8 +100,34 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
-    /// Whether bricks come with distances: version 4 (see [`VoxmapWriter::with_distances`]).
+    /// Whether bricks come with distances: version 5 (see [`VoxmapWriter::with_distances`]).
     pub(super) distances: bool,
+    /// The zstd dictionary of a version 5 file, trained on its first bricks.
+    pub(super) dictionary: DictionaryState,
+    /// How many first bricks it trains on: [`TRAINING_BRICKS`], fewer in tests.
+    pub(super) training_bricks: usize,
+}
+
+/// Where the writer is with its dictionary.
+pub(super) enum DictionaryState {
+    /// The first bricks' frames, kept until [`TRAINING_BRICKS`] have come (or the file is
+    /// finished), to train the dictionary on before any payload is written.
+    Training(Vec<PendingBrick>),
+    /// Trained and written: what compresses the bricks after (no dictionary, if none paid
+    /// for itself, or the file has no distances).
+    Trained {
+        prepared: Option<zstd::dict::EncoderDictionary<'static>>,
+        bytes: u64,
+        crc: u32,
+    },
+}
+
+/// A brick waiting for the dictionary: its frame before compression, and its voxel counts.
+pub(super) struct PendingBrick {
+    key: u64,
+    frame: Vec<u8>,
+    surface: u64,
+    inner: u64,
 }
 
 impl std::fmt::Debug for VoxmapWriter {
@@ -145,6 +172,12 @@ impl VoxmapWriter {
             inner_voxels: 0,
             compressor,
             distances: false,
+            dictionary: DictionaryState::Trained {
+                prepared: None,
+                bytes: 0,
+                crc: 0,
+            },
+            training_bricks: TRAINING_BRICKS,
         };
         // Room for the header, which is written last, once the counts are known.
         writer.write(&[0u8; HEADER_BYTES])?;
@@ -167,13 +200,14 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Write a version 4 file, whose bricks carry signed distances: bricks must then come
+    /// Write a version 5 file, whose bricks carry signed distances: bricks must then come
     /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
     pub fn with_distances(&mut self) -> Result<(), StorageError> {
-        if self.index.len() > 0 {
+        if self.last_key().is_some() {
             return Err(self.invalid("with_distances after the first brick".into()));
         }
         self.distances = true;
+        self.dictionary = DictionaryState::Training(Vec::new());
         Ok(())
     }
 
@@ -284,7 +318,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// A version 4 file takes its bricks with their distances only.
+    /// A file with distances takes its bricks with their distances only.
     fn check_layers_only(&self) -> Result<(), StorageError> {
         if self.distances {
             return Err(self.invalid("this file's bricks carry distances: use push_bricks_with_distances".into()));
@@ -292,7 +326,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Append many bricks and their signed distances (one array per brick) to a version 4
+    /// Append many bricks and their signed distances (one array per brick) to a version 5
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
     /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]), and
     /// on the side its value says where a contact reads it
@@ -314,7 +348,7 @@ impl VoxmapWriter {
                 distances.len()
             )));
         }
-        let mut prev = self.index.last_key;
+        let mut prev = self.last_key();
         for (b, d) in bricks.iter().zip(distances) {
             self.check_brick(prev, b.key, &b.values)?;
             if let Some(fault) = distance_fault(&b.values, d, self.layers) {
@@ -323,21 +357,118 @@ impl VoxmapWriter {
             prev = Some(b.key);
         }
         for (batch, dists) in bricks.chunks(BATCH).zip(distances.chunks(BATCH)) {
-            let encoded: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
+            if let DictionaryState::Trained { prepared, .. } = &self.dictionary {
+                // Made and compressed in one pass: only the payloads of a batch are held.
+                let payloads: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
+                    .par_iter()
+                    .zip(dists)
+                    .map_init(
+                        || compressor_for(prepared.as_ref()),
+                        |c, (b, d)| {
+                            let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                            let (surface, inner) = tally(&b.values);
+                            Ok((compress_frame(c, &median_frame(&b.values, d)?)?, surface, inner))
+                        },
+                    )
+                    .collect();
+                for (b, e) in batch.iter().zip(payloads) {
+                    let (payload, surface, inner) = e.map_err(self.io("compress a brick for"))?;
+                    self.push_payload(b.key, &payload, surface, inner)?;
+                }
+                continue;
+            }
+            let frames: Vec<std::io::Result<PendingBrick>> = batch
                 .par_iter()
                 .zip(dists)
-                .map_init(new_compressor, |c, (b, d)| {
-                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                .map(|(b, d)| {
                     let (surface, inner) = tally(&b.values);
-                    Ok((encode_brick_with_median_distances(c, &b.values, d)?, surface, inner))
+                    let mut frame = median_frame(&b.values, d)?;
+                    // Kept until the training: no more memory than its bytes.
+                    frame.shrink_to_fit();
+                    Ok(PendingBrick {
+                        key: b.key,
+                        frame,
+                        surface,
+                        inner,
+                    })
                 })
                 .collect();
-            for (b, e) in batch.iter().zip(encoded) {
-                let (payload, surface, inner) = e.map_err(self.io("compress a brick for"))?;
-                self.push_payload(b.key, &payload, surface, inner)?;
-            }
+            let frames = frames
+                .into_iter()
+                .collect::<std::io::Result<Vec<_>>>()
+                .map_err(self.io("encode a brick for"))?;
+            self.push_frames(frames)?;
         }
         Ok(())
+    }
+
+    /// The last brick's key so far, whether written or kept for the dictionary's training.
+    fn last_key(&self) -> Option<u64> {
+        match &self.dictionary {
+            DictionaryState::Training(pending) if !pending.is_empty() => pending.last().map(|b| b.key),
+            _ => self.index.last_key,
+        }
+    }
+
+    /// Compress and append the frames of bricks with distances, or keep them to train the
+    /// dictionary on while fewer than `training_bricks` have come.
+    fn push_frames(&mut self, mut frames: Vec<PendingBrick>) -> Result<(), StorageError> {
+        if let DictionaryState::Training(pending) = &mut self.dictionary {
+            let wanted = self.training_bricks.saturating_sub(pending.len());
+            let rest = frames.split_off(wanted.min(frames.len()));
+            pending.append(&mut frames);
+            if pending.len() < self.training_bricks {
+                return Ok(());
+            }
+            self.train_dictionary()?;
+            frames = rest;
+        }
+        let DictionaryState::Trained { prepared, .. } = &self.dictionary else {
+            return Err(self.invalid("the dictionary is not trained".into()));
+        };
+        let payloads: Vec<std::io::Result<Vec<u8>>> = frames
+            .par_iter()
+            .map_init(
+                || compressor_for(prepared.as_ref()),
+                |c, b| {
+                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                    compress_frame(c, &b.frame)
+                },
+            )
+            .collect();
+        for (b, payload) in frames.iter().zip(payloads) {
+            let payload = payload.map_err(self.io("compress a brick for"))?;
+            self.push_payload(b.key, &payload, b.surface, b.inner)?;
+        }
+        Ok(())
+    }
+
+    /// Train the dictionary on the bricks kept for it, write it after the header (where no
+    /// payload is yet) and append the bricks compressed with it.
+    fn train_dictionary(&mut self) -> Result<(), StorageError> {
+        let DictionaryState::Training(pending) = &mut self.dictionary else {
+            return Ok(());
+        };
+        let pending = std::mem::take(pending);
+        let frames: Vec<&[u8]> = pending.iter().map(|b| b.frame.as_slice()).collect();
+        let trained = match dictionary::train(&frames) {
+            Ok(trained) => trained,
+            Err(source) => {
+                // The bricks kept for the training are gone with it: refuse to go on.
+                self.out = None;
+                return Err(self.io("train the zstd dictionary for")(source));
+            }
+        };
+        let bytes = trained.as_deref().unwrap_or_default();
+        self.write(bytes)?;
+        self.dictionary = DictionaryState::Trained {
+            prepared: trained
+                .as_deref()
+                .map(|d| zstd::dict::EncoderDictionary::copy(d, ZSTD_LEVEL)),
+            bytes: bytes.len() as u64,
+            crc: crc32fast::hash(bytes),
+        };
+        self.push_frames(pending)
     }
 
     /// Mark the bricks in `range` as inside tiles. Runs must come in increasing order and
@@ -368,6 +499,13 @@ impl VoxmapWriter {
 
     /// Write the index, runs and header, sync, and rename the file into place.
     pub fn finish(mut self) -> Result<WriteReport, StorageError> {
+        // A file of fewer bricks than the training takes trains on all of them.
+        self.train_dictionary()?;
+        let (dictionary_bytes, dictionary_crc) = match self.dictionary {
+            DictionaryState::Trained { bytes, crc, .. } => (bytes, crc),
+            DictionaryState::Training(_) => return Err(self.invalid("the dictionary is not trained".into())),
+        };
+        let payload_offset = HEADER_BYTES as u64 + dictionary_bytes;
         // Runs are disjoint and within the grid, so this sum is at most brick_count.
         let inside_tile_bricks: u64 = self.runs.iter().map(|r| r.end - r.start).sum();
         let inner_voxels = inside_tile_bricks
@@ -381,7 +519,7 @@ impl VoxmapWriter {
             inside_tile_bricks,
         };
 
-        let payload_bytes = self.pos - HEADER_BYTES as u64;
+        let payload_bytes = self.pos - payload_offset;
         let index_offset = align8(self.pos).unwrap_or(self.pos);
         let pad = (index_offset - self.pos) as usize;
         self.write(&[0u8; 8][..pad])?;
@@ -432,15 +570,16 @@ impl VoxmapWriter {
             bricks_stored: counts.bricks_stored,
             inside_tile_bricks: counts.inside_tile_bricks,
             inside_runs: runs.len() as u64,
-            payload_offset: HEADER_BYTES as u64,
+            payload_offset,
             payload_bytes,
             index_offset,
             runs_offset,
             file_bytes: self.pos,
             index_crc,
             runs_crc: crc32fast::hash(runs_bytes),
-            reserved: [0; 4],
-            reserved2: 0,
+            dictionary_bytes,
+            reserved: [0; 3],
+            dictionary_crc,
             header_crc: 0,
         };
         h.header_crc = h.compute_crc();
@@ -468,6 +607,16 @@ impl VoxmapWriter {
     }
 }
 
+/// A compressor for codec 5's frames: with the file's dictionary, if it has one.
+fn compressor_for<'a>(
+    dictionary: Option<&'a zstd::dict::EncoderDictionary<'static>>,
+) -> std::io::Result<zstd::bulk::Compressor<'a>> {
+    match dictionary {
+        Some(d) => new_compressor_with(d),
+        None => new_compressor(),
+    }
+}
+
 /// Surface (value 0) and inner (value > 0) voxels of a brick.
 pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
     values
@@ -475,7 +624,7 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 4 when it
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 5 when it
 /// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;

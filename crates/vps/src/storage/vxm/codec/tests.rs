@@ -78,7 +78,7 @@ fn distance_codec_round_trips_and_rejects_junk() {
     assert_eq!((bounded[5], bounded[100], bounded[0]), (d[5], d[100], steps(-2.5)));
     assert_eq!(decode_brick_with_distances(&p, 3).unwrap(), (v, bounded));
     assert_eq!(
-        decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE).unwrap(),
+        decode_payload(&p, 3, CODEC_ZSTD_DELTA_DISTANCE, None).unwrap(),
         (v, Some(bounded))
     );
     // With 2 layers the values of -3 are in range, the distance of 2.7 voxels is not.
@@ -146,7 +146,7 @@ fn read_distance_codec_round_trips_and_rejects_junk(
         let mut want = d;
         bound_outer_distances(&v, &mut want);
         assert_eq!(decode(&p, 3).unwrap(), (v, want));
-        assert_eq!(decode_payload(&p, 3, codec).unwrap(), (v, Some(want)));
+        assert_eq!(decode_payload(&p, 3, codec, None).unwrap(), (v, Some(want)));
         // The distances of 3 layers reach 3.5 voxels (112 steps), not those of 2.
         if d.iter().zip(&v).any(|(&d, &v)| distance_is_read(v) && d.abs() > 80) {
             assert!(decode(&p, 2).is_err());
