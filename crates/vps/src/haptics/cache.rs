@@ -289,6 +289,16 @@ impl CachedVoxmap {
         SPARE_BRICKS.min(stored).min(self.shard_capacity * SHARDS)
     }
 
+    /// A brick to decode into: a spare made at open while any is left, else a new one.
+    fn spare(&self) -> Arc<StoredBrick> {
+        lock(&self.spares).pop().unwrap_or_else(|| {
+            Arc::new(StoredBrick {
+                values: [0; BRICK_VOXELS],
+                distances: None,
+            })
+        })
+    }
+
     /// `brick`, shared: in a spare made at open while any is left.
     fn shared(&self, brick: StoredBrick) -> Arc<StoredBrick> {
         let spare = lock(&self.spares).pop();
@@ -371,10 +381,17 @@ impl CachedVoxmap {
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
         let slot = match &self.source {
-            Source::File(f) => f.stored_brick_value(key)?,
-            Source::Memory(v) => v.stored_brick(key),
-        }
-        .map(|brick| self.shared(brick));
+            Source::File(f) => {
+                // Decoded where it will stay: moving a brick up from the decoder cost a tenth
+                // of its decoding (`docs/PERFORMANCE.md`, "Decoded in place").
+                let mut brick = self.spare();
+                match f.stored_brick_into(key, Arc::make_mut(&mut brick))? {
+                    BrickSlot::Stored(()) => BrickSlot::Stored(brick),
+                    BrickSlot::Tile(value) => BrickSlot::Tile(value),
+                }
+            }
+            Source::Memory(v) => v.stored_brick(key).map(|brick| self.shared(brick)),
+        };
         let mut map = shard.write().unwrap_or_else(|e| e.into_inner());
         if map.len() >= self.shard_capacity {
             map.clear();

@@ -73,6 +73,11 @@ fn version_5_carries_the_distances_and_version_1_stays() {
     assert_same(&file, &with);
     assert_eq!(file.to_voxmap().unwrap(), with);
     file.verify().unwrap();
+    // Decoded into one brick reused, as the cache does, each brick as read alone.
+    let mut reused = vps::voxmap::StoredBrick {
+        values: [0; BRICK_VOXELS],
+        distances: None,
+    };
     for (b, d) in with.bricks().iter().zip(with.distances().unwrap()) {
         match file.stored_brick(b.key).unwrap() {
             vps::voxmap::BrickSlot::Stored(s) => {
@@ -81,7 +86,22 @@ fn version_5_carries_the_distances_and_version_1_stays() {
             }
             other => panic!("brick {} read as {other:?}", b.key),
         }
+        assert_eq!(
+            file.stored_brick_into(b.key, &mut reused).unwrap(),
+            vps::voxmap::BrickSlot::Stored(())
+        );
+        assert_eq!((&reused.values, reused.distances.as_ref()), (&*b.values, Some(d)));
     }
+    // A tile leaves the brick as it was.
+    let tile = (0..file.grid().brick_count())
+        .find(|k| with.bricks().iter().all(|b| b.key != *k))
+        .unwrap();
+    let before = reused.clone();
+    assert!(matches!(
+        file.stored_brick_into(tile, &mut reused).unwrap(),
+        vps::voxmap::BrickSlot::Tile(_)
+    ));
+    assert_eq!(reused, before);
     assert!(vps::CachedVoxmap::open(&path).unwrap().has_distances());
 
     let without = ball(2, 9.0);

@@ -5,7 +5,7 @@
 use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{
     bound_outer_distances, distance_is_read, distance_on_its_side, far_distance, outer_distance, BrickDistances,
-    BrickValues,
+    BrickValues, StoredBrick,
 };
 
 use super::dictionary::Dictionary;
@@ -437,11 +437,30 @@ pub fn decode_brick_with_dictionary(
     layers: u8,
     dictionary: Option<&Dictionary>,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
+    let mut brick = StoredBrick {
+        values: [0; BRICK_VOXELS],
+        distances: None,
+    };
+    decode_median_into(payload, layers, dictionary, &mut brick)?;
+    Ok((brick.values, brick.distances.unwrap_or([0; BRICK_VOXELS])))
+}
+
+/// A payload of codec 4 or 5 decoded into `out`, whose distances it sets.
+fn decode_median_into(
+    payload: &[u8],
+    layers: u8,
+    dictionary: Option<&Dictionary>,
+    out: &mut StoredBrick,
+) -> Result<(), DecodeError> {
     let mut raw = [0u8; MEDIAN_FRAME_BYTES];
     let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, layers, dictionary)?;
-    let d = median::decode(&values, &raw[BRICK_VOXELS..n]).map_err(DecodeError::Malformed)?;
-    let d = checked_distances(&values, d, layers)?;
-    Ok((values, d))
+    out.values = values;
+    let d = out.distances.get_or_insert([0; BRICK_VOXELS]);
+    median::decode_into(&out.values, &raw[BRICK_VOXELS..n], d).map_err(DecodeError::Malformed)?;
+    match distance_fault(&out.values, d, layers) {
+        Some(fault) => Err(DecodeError::Malformed(fault)),
+        None => Ok(()),
+    }
 }
 
 /// `d`, the distances of a brick of `values`, if [`distance_fault`] finds none.
@@ -488,6 +507,25 @@ pub fn decode_payload(
         CODEC_ZSTD_DELTA_READ_DISTANCE => decode_brick_with_read_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         CODEC_ZSTD_DELTA_DISTANCE => decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d))),
         _ => decode_brick(payload, layers).map(|v| (v, None)),
+    }
+}
+
+/// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 and 5
+/// decode in place, the older ones are moved in. On an error `out` holds no brick to use.
+pub fn decode_payload_into(
+    payload: &[u8],
+    layers: u8,
+    codec: u8,
+    dictionary: Option<&Dictionary>,
+    out: &mut StoredBrick,
+) -> Result<(), DecodeError> {
+    match codec {
+        CODEC_ZSTD_MEDIAN_DICTIONARY => decode_median_into(payload, layers, dictionary, out),
+        CODEC_ZSTD_MEDIAN_DISTANCE => decode_median_into(payload, layers, None, out),
+        _ => {
+            (out.values, out.distances) = decode_payload(payload, layers, codec, dictionary)?;
+            Ok(())
+        }
     }
 }
 

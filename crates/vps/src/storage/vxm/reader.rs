@@ -248,23 +248,35 @@ impl VoxmapFile {
         i: usize,
         e: &IndexEntry,
     ) -> Result<(BrickValues, Option<BrickDistances>), StorageError> {
+        let mut brick = StoredBrick {
+            values: [0; BRICK_VOXELS],
+            distances: None,
+        };
+        self.read_entry_into(i, e, &mut brick)?;
+        Ok((brick.values, brick.distances))
+    }
+
+    /// [`VoxmapFile::read_entry_full`] into `out`.
+    fn read_entry_into(&self, i: usize, e: &IndexEntry, out: &mut StoredBrick) -> Result<(), StorageError> {
         let payload = self.checked_payload(i, e)?;
         let codec = codec_of(self.header.version);
-        decode_payload(payload, self.header.layers, codec, self.dictionary.as_deref()).map_err(|err| match err {
-            DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
-                path: self.path.clone(),
-                key: e.key,
-                voxel,
-                value,
-                layers: self.header.layers,
-                limit,
+        decode_payload_into(payload, self.header.layers, codec, self.dictionary.as_deref(), out).map_err(
+            |err| match err {
+                DecodeError::ValueOutOfRange { voxel, value, limit } => StorageError::ValueOutOfRange {
+                    path: self.path.clone(),
+                    key: e.key,
+                    voxel,
+                    value,
+                    layers: self.header.layers,
+                    limit,
+                },
+                DecodeError::Malformed(reason) => StorageError::Decompress {
+                    path: self.path.clone(),
+                    key: e.key,
+                    reason,
+                },
             },
-            DecodeError::Malformed(reason) => StorageError::Decompress {
-                path: self.path.clone(),
-                key: e.key,
-                reason,
-            },
-        })
+        )
     }
 
     /// What makes a thread's brick decoder (a zstd context, its tables and buffers) before a
@@ -340,6 +352,18 @@ impl VoxmapFile {
         if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
             let (values, distances) = self.read_entry_full(i, &index[i])?;
             return Ok(BrickSlot::Stored(StoredBrick { values, distances }));
+        }
+        Ok(BrickSlot::Tile(self.tile_value(runs, key)))
+    }
+
+    /// [`VoxmapFile::stored_brick_value`] into `out`, a brick that stays where it is (a
+    /// cache's): `Stored(())` once `out` holds the brick, or the tile's value, `out`
+    /// untouched. On an error `out` holds no brick to use.
+    pub fn stored_brick_into(&self, key: u64, out: &mut StoredBrick) -> Result<BrickSlot<()>, StorageError> {
+        let (index, runs) = self.tables()?;
+        if let Ok(i) = index.binary_search_by_key(&key, |e| e.key) {
+            self.read_entry_into(i, &index[i], out)?;
+            return Ok(BrickSlot::Stored(()));
         }
         Ok(BrickSlot::Tile(self.tile_value(runs, key)))
     }
