@@ -291,12 +291,7 @@ impl CachedVoxmap {
 
     /// A brick to decode into: a spare made at open while any is left, else a new one.
     fn spare(&self) -> Arc<StoredBrick> {
-        lock(&self.spares).pop().unwrap_or_else(|| {
-            Arc::new(StoredBrick {
-                values: [0; BRICK_VOXELS],
-                distances: None,
-            })
-        })
+        lock(&self.spares).pop().unwrap_or_else(|| Arc::new(StoredBrick::EMPTY))
     }
 
     /// `brick`, shared: in a spare made at open while any is left.

@@ -127,6 +127,14 @@ pub struct StoredBrick {
     pub distances: Option<BrickDistances>,
 }
 
+impl StoredBrick {
+    /// Zeros and no distances: a brick to decode into.
+    pub const EMPTY: StoredBrick = StoredBrick {
+        values: [0; BRICK_VOXELS],
+        distances: None,
+    };
+}
+
 /// What one brick position holds: a stored brick, through whatever owns or borrows its values
 /// (`&BrickValues` in memory, a `Box` read from a file, an `Arc` in a cache), or a uniform tile.
 /// One enum for all three, so a look-up is written once.

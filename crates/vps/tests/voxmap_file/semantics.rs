@@ -74,10 +74,7 @@ fn version_5_carries_the_distances_and_version_1_stays() {
     assert_eq!(file.to_voxmap().unwrap(), with);
     file.verify().unwrap();
     // Decoded into one brick reused, as the cache does, each brick as read alone.
-    let mut reused = vps::voxmap::StoredBrick {
-        values: [0; BRICK_VOXELS],
-        distances: None,
-    };
+    let mut reused = vps::voxmap::StoredBrick::EMPTY;
     for (b, d) in with.bricks().iter().zip(with.distances().unwrap()) {
         match file.stored_brick(b.key).unwrap() {
             vps::voxmap::BrickSlot::Stored(s) => {

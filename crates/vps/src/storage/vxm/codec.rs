@@ -213,6 +213,16 @@ pub fn new_compressor_with<'a>(
     set_up(zstd::bulk::Compressor::with_prepared_dictionary(dictionary)?)
 }
 
+/// A compressor for codec 5's frames: with the file's dictionary, if it has one.
+pub fn new_compressor_for<'a>(
+    dictionary: Option<&'a zstd::dict::EncoderDictionary<'_>>,
+) -> std::io::Result<zstd::bulk::Compressor<'a>> {
+    match dictionary {
+        Some(d) => new_compressor_with(d),
+        None => new_compressor(),
+    }
+}
+
 fn set_up(mut c: zstd::bulk::Compressor<'_>) -> std::io::Result<zstd::bulk::Compressor<'_>> {
     // The index holds a CRC per payload, so zstd's own checksum would only cost bytes; a
     // file has one dictionary, so its id would too.
@@ -427,25 +437,13 @@ pub fn decode_brick_with_median_distances(
     payload: &[u8],
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
-    decode_brick_with_dictionary(payload, layers, None)
-}
-
-/// Decompress one payload of codec 5, with the file's `dictionary` if it has one: as
-/// [`decode_brick_with_median_distances`] once decompressed.
-pub fn decode_brick_with_dictionary(
-    payload: &[u8],
-    layers: u8,
-    dictionary: Option<&Dictionary>,
-) -> Result<(BrickValues, BrickDistances), DecodeError> {
-    let mut brick = StoredBrick {
-        values: [0; BRICK_VOXELS],
-        distances: None,
-    };
-    decode_median_into(payload, layers, dictionary, &mut brick)?;
+    let mut brick = StoredBrick::EMPTY;
+    decode_median_into(payload, layers, None, &mut brick)?;
     Ok((brick.values, brick.distances.unwrap_or([0; BRICK_VOXELS])))
 }
 
-/// A payload of codec 4 or 5 decoded into `out`, whose distances it sets.
+/// A payload of codec 4, or of codec 5 with the file's `dictionary` if it has one, decoded
+/// into `out`, whose distances it sets.
 fn decode_median_into(
     payload: &[u8],
     layers: u8,
@@ -499,15 +497,9 @@ pub fn decode_payload(
     codec: u8,
     dictionary: Option<&Dictionary>,
 ) -> Result<(BrickValues, Option<BrickDistances>), DecodeError> {
-    match codec {
-        CODEC_ZSTD_MEDIAN_DICTIONARY => {
-            decode_brick_with_dictionary(payload, layers, dictionary).map(|(v, d)| (v, Some(d)))
-        }
-        CODEC_ZSTD_MEDIAN_DISTANCE => decode_brick_with_median_distances(payload, layers).map(|(v, d)| (v, Some(d))),
-        CODEC_ZSTD_DELTA_READ_DISTANCE => decode_brick_with_read_distances(payload, layers).map(|(v, d)| (v, Some(d))),
-        CODEC_ZSTD_DELTA_DISTANCE => decode_brick_with_distances(payload, layers).map(|(v, d)| (v, Some(d))),
-        _ => decode_brick(payload, layers).map(|v| (v, None)),
-    }
+    let mut brick = StoredBrick::EMPTY;
+    decode_payload_into(payload, layers, codec, dictionary, &mut brick)?;
+    Ok((brick.values, brick.distances))
 }
 
 /// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 and 5
@@ -520,13 +512,19 @@ pub fn decode_payload_into(
     out: &mut StoredBrick,
 ) -> Result<(), DecodeError> {
     match codec {
-        CODEC_ZSTD_MEDIAN_DICTIONARY => decode_median_into(payload, layers, dictionary, out),
-        CODEC_ZSTD_MEDIAN_DISTANCE => decode_median_into(payload, layers, None, out),
-        _ => {
-            (out.values, out.distances) = decode_payload(payload, layers, codec, dictionary)?;
-            Ok(())
+        CODEC_ZSTD_MEDIAN_DICTIONARY => return decode_median_into(payload, layers, dictionary, out),
+        CODEC_ZSTD_MEDIAN_DISTANCE => return decode_median_into(payload, layers, None, out),
+        CODEC_ZSTD_DELTA_READ_DISTANCE => {
+            let (v, d) = decode_brick_with_read_distances(payload, layers)?;
+            (out.values, out.distances) = (v, Some(d));
         }
+        CODEC_ZSTD_DELTA_DISTANCE => {
+            let (v, d) = decode_brick_with_distances(payload, layers)?;
+            (out.values, out.distances) = (v, Some(d));
+        }
+        _ => (out.values, out.distances) = (decode_brick(payload, layers)?, None),
     }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 
-use super::codec::{compress_frame, new_compressor, new_compressor_with, ZSTD_LEVEL};
+use super::codec::{compress_frame, new_compressor_for, ZSTD_LEVEL};
 
 /// The size the writer asks zstd's trainer for.
 pub const DICTIONARY_BYTES: usize = 16 << 10;
@@ -54,10 +54,7 @@ pub fn train<F: AsRef<[u8]> + Sync>(frames: &[F]) -> std::io::Result<Option<Vec<
         let sizes: Vec<std::io::Result<usize>> = frames
             .par_iter()
             .map_init(
-                || match with {
-                    Some(d) => new_compressor_with(d),
-                    None => new_compressor(),
-                },
+                || new_compressor_for(with),
                 |c, frame| {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     Ok(compress_frame(c, frame.as_ref())?.len())

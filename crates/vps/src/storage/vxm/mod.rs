@@ -38,7 +38,7 @@ use crate::voxmap::{
 };
 use codec::{
     compress_frame, decode_payload, decode_payload_into, distance_fault, encode_brick, median_frame, new_compressor,
-    new_compressor_with, DecodeError, ZSTD_LEVEL,
+    new_compressor_for, DecodeError, ZSTD_LEVEL,
 };
 use dictionary::{Dictionary, TRAINING_BRICKS};
 use format::{

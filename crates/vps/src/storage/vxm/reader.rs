@@ -248,10 +248,7 @@ impl VoxmapFile {
         i: usize,
         e: &IndexEntry,
     ) -> Result<(BrickValues, Option<BrickDistances>), StorageError> {
-        let mut brick = StoredBrick {
-            values: [0; BRICK_VOXELS],
-            distances: None,
-        };
+        let mut brick = StoredBrick::EMPTY;
         self.read_entry_into(i, e, &mut brick)?;
         Ok((brick.values, brick.distances))
     }

@@ -363,7 +363,7 @@ impl VoxmapWriter {
                     .par_iter()
                     .zip(dists)
                     .map_init(
-                        || compressor_for(prepared.as_ref()),
+                        || new_compressor_for(prepared.as_ref()),
                         |c, (b, d)| {
                             let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                             let (surface, inner) = tally(&b.values);
@@ -429,7 +429,7 @@ impl VoxmapWriter {
         let payloads: Vec<std::io::Result<Vec<u8>>> = frames
             .par_iter()
             .map_init(
-                || compressor_for(prepared.as_ref()),
+                || new_compressor_for(prepared.as_ref()),
                 |c, b| {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
                     compress_frame(c, &b.frame)
@@ -604,16 +604,6 @@ impl VoxmapWriter {
             inside_runs: h.inside_runs,
             counts,
         })
-    }
-}
-
-/// A compressor for codec 5's frames: with the file's dictionary, if it has one.
-fn compressor_for<'a>(
-    dictionary: Option<&'a zstd::dict::EncoderDictionary<'static>>,
-) -> std::io::Result<zstd::bulk::Compressor<'a>> {
-    match dictionary {
-        Some(d) => new_compressor_with(d),
-        None => new_compressor(),
     }
 }
 
