@@ -48,7 +48,7 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
     path = tmp_path / "part.vxm"
     made.write(path)
     vxm = read(path)
-    assert vxm.version == 5 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
+    assert vxm.version == 6 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
     assert vxm.counts["bricks_stored"] == len(vxm.bricks) > 0
     # Every voxel of every stored brick, and a voxel of each tile brick: tiles have no
     # stored distance and read as the reach, with the tile's sign.
@@ -77,7 +77,7 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
 
 
 def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
-    """A part of some thousand bricks gets a zstd dictionary (codec 5): the spec reads every
+    """A part of some thousand bricks gets a zstd dictionary (codec 6): the spec reads every
     brick's values through it, and the distances of a sample of bricks, as the library looks
     them up."""
     made = vps.voxelize(vps.Mesh(*sphere(center=(0.31, 0.17, 0.23), radius=15.0, rings=48, segments=96)), SIZE,
@@ -87,7 +87,7 @@ def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
     keys = sorted(read(path, distances_of=set()).bricks)
     sample = set(keys[:8] + keys[len(keys) // 2 : len(keys) // 2 + 8] + keys[-8:])
     vxm = read(path, distances_of=sample)
-    assert vxm.version == 5 and len(keys) > 1000 and vxm.counts["dictionary_bytes"] > 0, vxm.counts
+    assert vxm.version == 6 and len(keys) > 1000 and vxm.counts["dictionary_bytes"] > 0, vxm.counts
     voxels = np.vstack([brick_voxels(vxm, k) for k in sorted(sample)])
     values = [v for k in sorted(sample) for v in vxm.bricks[k][0]]
     steps = [d for k in sorted(sample) for d in vxm.bricks[k][1]]

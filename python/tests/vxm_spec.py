@@ -2,7 +2,7 @@
 the spec, against which `test_format.py` checks the library's files and lookups.
 
 Slow and obvious on purpose (voxel by voxel, the median by sorting), and it does not import
-`vps`. It reads versions 1 to 5 (the tests give it the two this library writes, 1 and 5) and
+`vps`. It reads versions 1 to 6 (the tests give it the two this library writes, 1 and 6) and
 checks a file against the spec's rules: the header's fields and limits, the layout and its zero
 padding, every CRC, the dictionary, one zstd frame per payload of its codec's length, the
 value range, the distances' range and sign, sorted keys and runs, no stored brick in a run,
@@ -23,9 +23,9 @@ ZSTD_MAGIC = bytes([0x28, 0xB5, 0x2F, 0xFD])
 HEADER_BYTES = 192
 VOXELS = 512
 # Which codec each version's payloads use: the version's number.
-CODECS = {1: 1, 2: 2, 3: 3, 4: 4, 5: 5}
+CODECS = {1: 1, 2: 2, 3: 3, 4: 4, 5: 5, 6: 6}
 # The longest payload of each codec (`P`).
-MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560, 5: 2560}
+MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560, 5: 2560, 6: 2560}
 MAX_DICTIONARY_BYTES = 1 << 16
 
 
@@ -175,9 +175,9 @@ def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
     if params.content_size == zstandard.CONTENTSIZE_UNKNOWN or params.dict_id != 0:
         raise SpecError("a frame without its content size, or with a dictionary id")
     try:
-        # Exactly one frame: no bytes, and no second frame, after it. Codec 5's with the
-        # file's dictionary, if it has one.
-        decompressor = zstandard.ZstdDecompressor(dict_data=zdict) if codec == 5 and zdict else zstandard.ZstdDecompressor()
+        # Exactly one frame: no bytes, and no second frame, after it. Codec 5's and 6's with
+        # the file's dictionary, if it has one.
+        decompressor = zstandard.ZstdDecompressor(dict_data=zdict) if codec >= 5 and zdict else zstandard.ZstdDecompressor()
         raw = decompressor.decompress(frame, allow_extra_data=False)
     except zstandard.ZstdError as e:
         raise SpecError(f"not one zstd frame: {e}") from e
@@ -218,7 +218,7 @@ def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
             d[i] = wrap((0 if p is None else d[p]) + unzigzag(z), 16)
             k += 1
     else:
-        d = decode_median(raw[VOXELS:], values, stored)
+        d = decode_median(raw[VOXELS:], values, stored, codec)
     for i in range(VOXELS):
         if abs(d[i]) > reach:
             raise SpecError(f"voxel {i}: distance {d[i]} beyond the reach")
@@ -227,8 +227,9 @@ def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
     return values, d
 
 
-def median_prediction(i, d, stored, values):
-    """Codec 4's prediction of voxel `i` from the distances `d` decoded before it."""
+def median_prediction(i, d, stored, values, codec):
+    """Codec 4's (and 5's) prediction of voxel `i` from the distances `d` decoded before it,
+    or codec 6's, from candidates C, E, F and I only."""
     x, y, z = coords(i)
 
     def n(dx, dy, dz):
@@ -255,14 +256,18 @@ def median_prediction(i, d, stored, values):
         xc + a - c if known(xc, a, c) else None,  # H
         yc + b - c if known(yc, b, c) else None,  # I
     ]
+    if codec == 6:
+        candidates = [candidates[k] for k in (2, 4, 5, 8)]  # C, E, F, I
     available = sorted(v for v in candidates if v is not None)
     if available:
         return available[(len(available) - 1) // 2]
+    if codec == 6 and known(a, a2):
+        return 2 * a - a2  # D
     first = next((v for v in (a, b, c) if v is not None), None)
     return first if first is not None else 32 * values[i]
 
 
-def decode_median(stream, values, stored):
+def decode_median(stream, values, stored, codec):
     d, at = [0] * VOXELS, 0
     for i in range(VOXELS):
         if not stored[i]:
@@ -276,7 +281,7 @@ def decode_median(stream, values, stored):
             z, at = stream[at + 1] | stream[at + 2] << 8, at + 3
         else:
             z, at = stream[at], at + 1
-        v = median_prediction(i, d, stored, values) + unzigzag(z)
+        v = median_prediction(i, d, stored, values, codec) + unzigzag(z)
         if not -(1 << 15) <= v < (1 << 15):
             raise SpecError(f"voxel {i}: distance {v} beyond 16 bits")
         d[i] = v

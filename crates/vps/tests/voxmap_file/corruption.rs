@@ -8,16 +8,18 @@ fn flipping_any_byte_is_caught() {
     flipping_any_byte_of(&ball(1, 5.0));
 }
 
-/// Version 2: the distances are covered as the values are.
+/// With distances (version 6): the distances are covered as the values are.
 #[test]
 fn flipping_any_byte_of_a_file_with_distances_is_caught() {
     flipping_any_byte_of(&ball_with_distances(1, 5.0));
 }
 
-/// Version 5 with a dictionary: the dictionary's bytes too.
+/// Versions 5 and 6 with a dictionary: the dictionary's bytes too.
 #[test]
 fn flipping_any_byte_of_a_file_with_a_dictionary_is_caught() {
-    flipping_any_byte_of_file(&super::semantics::with_a_small_dictionary().1);
+    for version in [5, VERSION] {
+        flipping_any_byte_of_file(&super::semantics::with_a_small_dictionary_in(version).1);
+    }
 }
 
 fn flipping_any_byte_of(vm: &Voxmap) {
@@ -45,7 +47,7 @@ fn flipping_any_byte_of_file(good: &[u8]) {
     }
 }
 
-/// A version 5 file's dictionary: a flipped byte fails its checksum at open, one that zstd
+/// A version 6 file's dictionary: a flipped byte fails its checksum at open, one that zstd
 /// cannot load is named, and the dictionary's fields are refused where they do not belong.
 #[test]
 fn a_damaged_dictionary_is_named() {

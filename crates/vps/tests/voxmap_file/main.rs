@@ -27,7 +27,7 @@ pub(crate) fn ball(layers: u8, radius: f64) -> Voxmap {
     Voxmap::from_signed_distance(grid, layers, |p| p.length() - radius)
 }
 
-/// [`ball`] carrying the exact signed distances of its stored voxels (a version 5 file), those
+/// [`ball`] carrying the exact signed distances of its stored voxels (a version 6 file), those
 /// that no contact reads replaced by their bounds ([`Voxmap::with_distances`]).
 pub(crate) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
     let vm = ball(layers, radius);

@@ -11,9 +11,11 @@ use crate::voxmap::{
 use super::dictionary::Dictionary;
 use super::format::{
     CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DICTIONARY,
-    CODEC_ZSTD_MEDIAN_DISTANCE, MAX_PAYLOAD_BYTES, MAX_PAYLOAD_BYTES_DISTANCE, MAX_PAYLOAD_BYTES_MEDIAN,
+    CODEC_ZSTD_MEDIAN_DISTANCE, CODEC_ZSTD_MEDIAN_ROWS, MAX_PAYLOAD_BYTES, MAX_PAYLOAD_BYTES_DISTANCE,
+    MAX_PAYLOAD_BYTES_MEDIAN,
 };
 use super::median;
+pub use super::median::Predictor;
 
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
 /// Nefertiti scan voxelized into a 3.4·10⁸-voxel grid (65,106 stored bricks), level 1 wrote
@@ -183,20 +185,31 @@ pub fn encode_brick_with_median_distances(
     values: &BrickValues,
     distances: &BrickDistances,
 ) -> std::io::Result<Vec<u8>> {
-    compress_frame(compressor, &median_frame(values, distances)?)
+    compress_frame(compressor, &median_frame_of(Predictor::Nine, values, distances)?)
 }
 
-/// The frame of codecs 4 and 5 before compression: the value residuals, then the residual
-/// stream of the distances (`median.rs`).
+/// The frame of codec 6 before compression: the value residuals, then the residual stream of
+/// the distances against [`Predictor::Rows`] (`median.rs`).
 pub fn median_frame(values: &BrickValues, distances: &BrickDistances) -> std::io::Result<Vec<u8>> {
+    median_frame_of(Predictor::Rows, values, distances)
+}
+
+/// The frame of codecs 4 and 5 ([`Predictor::Nine`]) or 6 ([`Predictor::Rows`]) before
+/// compression.
+pub fn median_frame_of(
+    predictor: Predictor,
+    values: &BrickValues,
+    distances: &BrickDistances,
+) -> std::io::Result<Vec<u8>> {
     let mut raw = Vec::with_capacity(2 * BRICK_VOXELS);
     raw.extend_from_slice(&predict(values));
-    median::encode(values, distances, &mut raw).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+    median::encode(values, distances, predictor, &mut raw)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
     Ok(raw)
 }
 
-/// Compress a [`median_frame`] into a payload of codec 4, or of codec 5 with a compressor
-/// made by [`new_compressor_with`] the file's dictionary.
+/// Compress a [`median_frame_of`] into a payload of codec 4, or of codec 5 or 6 with a
+/// compressor made by [`new_compressor_with`] the file's dictionary.
 pub fn compress_frame(compressor: &mut zstd::bulk::Compressor<'_>, frame: &[u8]) -> std::io::Result<Vec<u8>> {
     payload_of(compressor, frame, MAX_PAYLOAD_BYTES_MEDIAN)
 }
@@ -206,14 +219,14 @@ pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
     set_up(zstd::bulk::Compressor::new(ZSTD_LEVEL)?)
 }
 
-/// [`new_compressor`] with a dictionary prepared at [`ZSTD_LEVEL`], for codec 5.
+/// [`new_compressor`] with a dictionary prepared at [`ZSTD_LEVEL`], for codecs 5 and 6.
 pub fn new_compressor_with<'a>(
     dictionary: &'a zstd::dict::EncoderDictionary<'_>,
 ) -> std::io::Result<zstd::bulk::Compressor<'a>> {
     set_up(zstd::bulk::Compressor::with_prepared_dictionary(dictionary)?)
 }
 
-/// A compressor for codec 5's frames: with the file's dictionary, if it has one.
+/// A compressor for the frames of codecs 5 and 6: with the file's dictionary, if it has one.
 pub fn new_compressor_for<'a>(
     dictionary: Option<&'a zstd::dict::EncoderDictionary<'_>>,
 ) -> std::io::Result<zstd::bulk::Compressor<'a>> {
@@ -438,23 +451,24 @@ pub fn decode_brick_with_median_distances(
     layers: u8,
 ) -> Result<(BrickValues, BrickDistances), DecodeError> {
     let mut brick = StoredBrick::EMPTY;
-    decode_median_into(payload, layers, None, &mut brick)?;
+    decode_median_into(payload, layers, None, Predictor::Nine, &mut brick)?;
     Ok((brick.values, brick.distances.unwrap_or([0; BRICK_VOXELS])))
 }
 
-/// A payload of codec 4, or of codec 5 with the file's `dictionary` if it has one, decoded
-/// into `out`, whose distances it sets.
+/// A payload of codec 4, or of codec 5 or 6 with the file's `dictionary` if it has one, its
+/// distances predicted by `predictor`, decoded into `out`, whose distances it sets.
 fn decode_median_into(
     payload: &[u8],
     layers: u8,
     dictionary: Option<&Dictionary>,
+    predictor: Predictor,
     out: &mut StoredBrick,
 ) -> Result<(), DecodeError> {
     let mut raw = [0u8; MEDIAN_FRAME_BYTES];
     let (values, n) = values_of_frame(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, layers, dictionary)?;
     out.values = values;
     let d = out.distances.get_or_insert([0; BRICK_VOXELS]);
-    median::decode_into(&out.values, &raw[BRICK_VOXELS..n], d).map_err(DecodeError::Malformed)?;
+    median::decode_into(&out.values, &raw[BRICK_VOXELS..n], predictor, d).map_err(DecodeError::Malformed)?;
     match distance_fault(&out.values, d, layers) {
         Some(fault) => Err(DecodeError::Malformed(fault)),
         None => Ok(()),
@@ -489,7 +503,7 @@ pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u
     Some(format!("voxel {voxel} has distance {} steps, {why}", d[voxel]))
 }
 
-/// Decode a payload of `codec`: the values, and the distances for codecs 2 to 5; codec 5's
+/// Decode a payload of `codec`: the values, and the distances for codecs 2 to 6; codecs 5 and 6
 /// with the file's `dictionary`, if it has one (the others take none).
 pub fn decode_payload(
     payload: &[u8],
@@ -512,8 +526,9 @@ pub fn decode_payload_into(
     out: &mut StoredBrick,
 ) -> Result<(), DecodeError> {
     match codec {
-        CODEC_ZSTD_MEDIAN_DICTIONARY => return decode_median_into(payload, layers, dictionary, out),
-        CODEC_ZSTD_MEDIAN_DISTANCE => return decode_median_into(payload, layers, None, out),
+        CODEC_ZSTD_MEDIAN_ROWS => return decode_median_into(payload, layers, dictionary, Predictor::Rows, out),
+        CODEC_ZSTD_MEDIAN_DICTIONARY => return decode_median_into(payload, layers, dictionary, Predictor::Nine, out),
+        CODEC_ZSTD_MEDIAN_DISTANCE => return decode_median_into(payload, layers, None, Predictor::Nine, out),
         CODEC_ZSTD_DELTA_READ_DISTANCE => {
             let (v, d) = decode_brick_with_read_distances(payload, layers)?;
             (out.values, out.distances) = (v, Some(d));

@@ -1,4 +1,4 @@
-//! The zstd dictionary of a version 5 file (`docs/FORMAT.md`, "Brick payload (codec 5)").
+//! The zstd dictionary of a version 5 or 6 file (`docs/FORMAT.md`, "Brick payload (codec 5)").
 //!
 //! A brick's frame is small, 512 values and a few hundred residuals, so zstd spends about half
 //! of its time decoding one on the entropy tables that the frame carries, and much of its

@@ -14,8 +14,13 @@ pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
 /// The newest format version, which this crate writes for a voxmap with signed distances:
 /// every payload holds the brick's values and the distances a contact can read, predicted by
-/// a median, compressed with a zstd dictionary stored in the file (codec 5).
-pub const VERSION: u32 = 5;
+/// a median of the rows before, compressed with a zstd dictionary stored in the file
+/// (codec 6).
+pub const VERSION: u32 = 6;
+
+/// The version of the files whose distances are predicted by the median of nine, with a
+/// zstd dictionary (codec 5), which this crate still reads.
+pub const VERSION_DICTIONARY: u32 = 5;
 
 /// The version of the files whose payloads are codec 5's frames compressed without a
 /// dictionary (codec 4), which this crate still reads.
@@ -68,6 +73,11 @@ pub const CODEC_ZSTD_MEDIAN_DISTANCE: u8 = 4;
 /// file's zstd dictionary, if it has one (see [`super::dictionary::DICTIONARY_BYTES`]).
 pub const CODEC_ZSTD_MEDIAN_DICTIONARY: u8 = 5;
 
+/// Codec id of version 6: as [`CODEC_ZSTD_MEDIAN_DICTIONARY`], each distance predicted by the
+/// lower median of the four extrapolations that read no voxel of its own row (see
+/// [`median_frame`](super::codec::median_frame)).
+pub const CODEC_ZSTD_MEDIAN_ROWS: u8 = 6;
+
 /// The largest zstd dictionary a file may hold; the writer makes one of at most
 /// [`super::dictionary::DICTIONARY_BYTES`].
 pub const MAX_DICTIONARY_BYTES: u64 = 1 << 16;
@@ -75,7 +85,8 @@ pub const MAX_DICTIONARY_BYTES: u64 = 1 << 16;
 /// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
 pub fn codec_of(version: u32) -> u8 {
     match version {
-        VERSION => CODEC_ZSTD_MEDIAN_DICTIONARY,
+        VERSION => CODEC_ZSTD_MEDIAN_ROWS,
+        VERSION_DICTIONARY => CODEC_ZSTD_MEDIAN_DICTIONARY,
         VERSION_MEDIAN => CODEC_ZSTD_MEDIAN_DISTANCE,
         VERSION_READ_DISTANCES => CODEC_ZSTD_DELTA_READ_DISTANCE,
         VERSION_ALL_DISTANCES => CODEC_ZSTD_DELTA_DISTANCE,
@@ -87,8 +98,13 @@ pub fn codec_of(version: u32) -> u8 {
 pub fn has_distances(version: u32) -> bool {
     matches!(
         version,
-        VERSION | VERSION_MEDIAN | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES
+        VERSION | VERSION_DICTIONARY | VERSION_MEDIAN | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES
     )
+}
+
+/// Whether files of `version` may hold a zstd dictionary.
+pub fn has_dictionary(version: u32) -> bool {
+    matches!(version, VERSION | VERSION_DICTIONARY)
 }
 
 /// Largest payload a valid file can hold. zstd's worst case for 512 bytes is 577, so
@@ -99,7 +115,7 @@ pub const MAX_PAYLOAD_BYTES: usize = 1024;
 /// case is under 1,600).
 pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
 
-/// Largest payload of codecs 4 and 5, whose frames hold at most 2,048 bytes (512 values and
+/// Largest payload of codecs 4 to 6, whose frames hold at most 2,048 bytes (512 values and
 /// 512 escaped residuals of three bytes; zstd's worst case is under 2,100).
 pub const MAX_PAYLOAD_BYTES_MEDIAN: usize = 2560;
 
@@ -107,7 +123,7 @@ pub const MAX_PAYLOAD_BYTES_MEDIAN: usize = 2560;
 pub fn max_payload_bytes(codec: u8) -> usize {
     match codec {
         CODEC_ZSTD_DELTA => MAX_PAYLOAD_BYTES,
-        CODEC_ZSTD_MEDIAN_DISTANCE | CODEC_ZSTD_MEDIAN_DICTIONARY => MAX_PAYLOAD_BYTES_MEDIAN,
+        CODEC_ZSTD_MEDIAN_DISTANCE | CODEC_ZSTD_MEDIAN_DICTIONARY | CODEC_ZSTD_MEDIAN_ROWS => MAX_PAYLOAD_BYTES_MEDIAN,
         _ => MAX_PAYLOAD_BYTES_DISTANCE,
     }
 }
@@ -149,7 +165,7 @@ pub struct RawHeader {
     pub inside_tile_bricks: u64,
     /// Number of inside-run entries.
     pub inside_runs: u64,
-    /// Offset of the first payload: [`HEADER_BYTES`], plus the dictionary's bytes in version 5.
+    /// Offset of the first payload: [`HEADER_BYTES`], plus the dictionary's bytes in versions 5 and 6.
     pub payload_offset: u64,
     /// Total bytes of all payloads, back to back.
     pub payload_bytes: u64,
@@ -163,12 +179,12 @@ pub struct RawHeader {
     pub index_crc: u32,
     /// CRC-32 of the inside-run table bytes.
     pub runs_crc: u32,
-    /// Bytes of the zstd dictionary right after the header, in version 5 (0 for none); zero
+    /// Bytes of the zstd dictionary right after the header, in versions 5 and 6 (0 for none); zero
     /// before.
     pub dictionary_bytes: u64,
     /// Zero.
     pub reserved: [u64; 3],
-    /// CRC-32 of the dictionary's bytes in version 5; zero before.
+    /// CRC-32 of the dictionary's bytes in versions 5 and 6; zero before.
     pub dictionary_crc: u32,
     /// CRC-32 of the first [`HEADER_CRC_COVERS`] header bytes.
     pub header_crc: u32,

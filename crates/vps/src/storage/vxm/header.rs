@@ -205,10 +205,10 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
     if h.reserved != [0; 3] {
         return Err(field("reserved", "not zero".into()));
     }
-    if version != VERSION && (h.dictionary_bytes != 0 || h.dictionary_crc != 0) {
+    if !has_dictionary(version) && (h.dictionary_bytes != 0 || h.dictionary_crc != 0) {
         return Err(field(
             "dictionary_bytes",
-            format!("a dictionary in a version {version} file: only version {VERSION} has one"),
+            format!("a dictionary in a version {version} file: only versions 5 and {VERSION} have one"),
         ));
     }
     if h.dictionary_bytes > MAX_DICTIONARY_BYTES {

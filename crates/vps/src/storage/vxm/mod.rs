@@ -42,7 +42,7 @@ use codec::{
 };
 use dictionary::{Dictionary, TRAINING_BRICKS};
 use format::{
-    align8, codec_of, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
+    align8, codec_of, has_dictionary, has_distances, max_payload_bytes, IndexEntry, RawHeader, RunEntry, HEADER_BYTES,
     INDEX_ENTRY_BYTES, MAGIC, MAX_DICTIONARY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;

@@ -19,7 +19,7 @@ pub struct Header {
     pub inside_runs: u64,
     /// Total compressed bytes of the brick payloads.
     pub payload_bytes: u64,
-    /// Bytes of the zstd dictionary the payloads share (version 5; 0 for none).
+    /// Bytes of the zstd dictionary the payloads share (versions 5 and 6; 0 for none).
     pub dictionary_bytes: u64,
     /// Length of the file.
     pub file_bytes: u64,
@@ -87,7 +87,7 @@ impl Backing {
 /// Where the sections are, as validated byte ranges of the backing.
 #[derive(Clone, Debug)]
 pub(super) struct Layout {
-    /// The zstd dictionary of a version 5 file; empty if it has none.
+    /// The zstd dictionary of a version 5 or 6 file; empty if it has none.
     pub(super) dictionary: Range<usize>,
     pub(super) payload: Range<usize>,
     pub(super) index: Range<usize>,
@@ -102,7 +102,7 @@ pub struct VoxmapFile {
     pub(super) header: Header,
     pub(super) brick_count: u64,
     pub(super) layout: Layout,
-    /// The zstd dictionary of a version 5 file that has one, loaded at open.
+    /// The zstd dictionary of a version 5 or 6 file that has one, loaded at open.
     pub(super) dictionary: Option<Arc<Dictionary>>,
 }
 

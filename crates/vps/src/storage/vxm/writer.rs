@@ -22,7 +22,7 @@ pub struct WriteReport {
 
 /// Bricks compressed per parallel batch: large enough to keep every core busy, small
 /// enough that a batch of payloads stays a few hundred kilobytes (the frames kept for a
-/// version 5 file's dictionary, up to [`TRAINING_BRICKS`] of them, take about 3.3 MB).
+/// version 6 file's dictionary, up to [`TRAINING_BRICKS`] of them, take about 3.3 MB).
 pub(super) const BATCH: usize = 4096;
 
 /// Index entries held in memory before they go to the spill file, when there is one (a few
@@ -100,9 +100,9 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
-    /// Whether bricks come with distances: version 5 (see [`VoxmapWriter::with_distances`]).
+    /// Whether bricks come with distances: version 6 (see [`VoxmapWriter::with_distances`]).
     pub(super) distances: bool,
-    /// The zstd dictionary of a version 5 file, trained on its first bricks.
+    /// The zstd dictionary of a version 6 file, trained on its first bricks.
     pub(super) dictionary: DictionaryState,
     /// How many first bricks it trains on: [`TRAINING_BRICKS`], fewer in tests.
     pub(super) training_bricks: usize,
@@ -200,7 +200,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Write a version 5 file, whose bricks carry signed distances: bricks must then come
+    /// Write a version 6 file, whose bricks carry signed distances: bricks must then come
     /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
     pub fn with_distances(&mut self) -> Result<(), StorageError> {
         if self.last_key().is_some() {
@@ -326,7 +326,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Append many bricks and their signed distances (one array per brick) to a version 5
+    /// Append many bricks and their signed distances (one array per brick) to a version 6
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
     /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]), and
     /// on the side its value says where a contact reads it
@@ -614,7 +614,7 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 5 when it
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 6 when it
 /// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;
