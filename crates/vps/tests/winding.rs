@@ -188,6 +188,32 @@ fn closed_consistent_meshes_give_exactly_the_objects_fill() {
     }
 }
 
+/// A soup of loose triangles, each edge a boundary edge (more than the 16,384 past which the
+/// fill cuts blocks near triangles down to single voxels): the fill finishes and agrees with
+/// the reference. It used to cut a single voxel near a triangle into itself, forever (a
+/// scanned monastery of the shared meshes, `samurai_monastery.obj`, never finished).
+#[test]
+fn a_soup_of_loose_triangles_finishes_and_is_solid() {
+    let shattered: Vec<Triangle> = shapes::sphere(DVec3::new(0.3, 0.2, 0.1), 10.0, 48, 96)
+        .into_iter()
+        .map(|t| {
+            // Each triangle shrunk by 2 % about its centroid: no vertex shared.
+            let c = (t[0] + t[1] + t[2]) / 3.0;
+            t.map(|v| c + (v - c) * 0.98)
+        })
+        .collect();
+    assert!(3 * shattered.len() > 16_384, "{} triangles", shattered.len());
+    let mesh = assembly(vec![("shattered", shattered)]);
+    let (done, finished) = std::sync::mpsc::channel();
+    let worker = mesh.clone();
+    std::thread::spawn(move || done.send(winding(&worker, 0.5, 2)).unwrap());
+    let vm = finished
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("the winding fill of 27,000 loose edges did not finish in 120 s");
+    assert!(vm.value_at(DVec3::new(0.3, 0.2, 0.1)) > 0);
+    assert_agrees("shattered sphere", &mesh, 0.5);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     /// Every voxel of a small grid against the dense reference: values and layers agree on

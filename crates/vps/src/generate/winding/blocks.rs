@@ -185,8 +185,9 @@ pub(super) fn decide(tile: &Tile, block: Block, runs: &mut Runs, stack: &mut Vec
         return;
     }
     // With a long boundary (loose triangles), models cost too much where triangles are: cut
-    // such blocks down to voxels, which the nearby triangles mostly decide alone.
-    if obj.boundary.len() > LONG_BOUNDARY && obj.area.touches(c, radius) {
+    // such blocks down to voxels, which the nearby triangles mostly decide alone. A single
+    // voxel goes on to be decided: cut, it would be itself again, forever.
+    if obj.boundary.len() > LONG_BOUNDARY && block.volume() > 1 && obj.area.touches(c, radius) {
         block.refine(stack);
         return;
     }
