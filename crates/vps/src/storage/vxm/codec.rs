@@ -16,6 +16,7 @@ use super::format::{
 };
 use super::median;
 pub use super::median::Predictor;
+use rayon::prelude::*;
 
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
 /// Nefertiti scan voxelized into a 3.4·10⁸-voxel grid (65,106 stored bricks), level 1 wrote
@@ -214,6 +215,24 @@ pub fn compress_frame(compressor: &mut zstd::bulk::Compressor<'_>, frame: &[u8])
     payload_of(compressor, frame, MAX_PAYLOAD_BYTES_MEDIAN)
 }
 
+/// [`compress_frame`] for each of `frames` in parallel, one compressor a thread, with the
+/// file's `dictionary` if it has one: the payloads in the frames' order.
+pub(super) fn compress_frames<F: AsRef<[u8]> + Sync>(
+    frames: &[F],
+    dictionary: Option<&zstd::dict::EncoderDictionary<'_>>,
+) -> Vec<std::io::Result<Vec<u8>>> {
+    frames
+        .par_iter()
+        .map_init(
+            || new_compressor_for(dictionary),
+            |c, frame| {
+                let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                compress_frame(c, frame.as_ref())
+            },
+        )
+        .collect()
+}
+
 /// A zstd compressor set up as the writer uses it.
 pub fn new_compressor() -> std::io::Result<zstd::bulk::Compressor<'static>> {
     set_up(zstd::bulk::Compressor::new(ZSTD_LEVEL)?)
@@ -377,7 +396,8 @@ pub fn decode_brick_with_distances(payload: &[u8], layers: u8) -> Result<(BrickV
     for (i, r) in r.iter_mut().enumerate() {
         *r = unzigzag(raw[BRICK_VOXELS + i] as u16 | (raw[2 * BRICK_VOXELS + i] as u16) << 8);
     }
-    let mut d = checked_distances(&values, unpredict(&r), layers)?;
+    let mut d = unpredict(&r);
+    check_distances(&values, &d, layers)?;
     // Version 2 stored them all; a voxmap holds the bounds of those no contact reads.
     bound_outer_distances(&values, &mut d);
     Ok((values, d))
@@ -439,7 +459,7 @@ pub fn decode_brick_with_read_distances(
             d[x] = acc;
         }
     }
-    let d = checked_distances(&values, d, layers)?;
+    check_distances(&values, &d, layers)?;
     Ok((values, d))
 }
 
@@ -469,18 +489,13 @@ fn decode_median_into(
     out.values = values;
     let d = out.distances.get_or_insert([0; BRICK_VOXELS]);
     median::decode_into(&out.values, &raw[BRICK_VOXELS..n], predictor, d).map_err(DecodeError::Malformed)?;
-    match distance_fault(&out.values, d, layers) {
-        Some(fault) => Err(DecodeError::Malformed(fault)),
-        None => Ok(()),
-    }
+    check_distances(&out.values, d, layers)
 }
 
-/// `d`, the distances of a brick of `values`, if [`distance_fault`] finds none.
-fn checked_distances(values: &BrickValues, d: BrickDistances, layers: u8) -> Result<BrickDistances, DecodeError> {
-    match distance_fault(values, &d, layers) {
-        Some(fault) => Err(DecodeError::Malformed(fault)),
-        None => Ok(d),
-    }
+/// The fault [`distance_fault`] finds in `d`, the distances of a brick of `values`, as an
+/// error.
+fn check_distances(values: &BrickValues, d: &BrickDistances, layers: u8) -> Result<(), DecodeError> {
+    distance_fault(values, d, layers).map_or(Ok(()), |fault| Err(DecodeError::Malformed(fault)))
 }
 
 /// What is wrong with the first of `d`, the distances of a brick of `values`, that lies beyond
@@ -516,7 +531,7 @@ pub fn decode_payload(
     Ok((brick.values, brick.distances))
 }
 
-/// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 and 5
+/// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 to 6
 /// decode in place, the older ones are moved in. On an error `out` holds no brick to use.
 pub fn decode_payload_into(
     payload: &[u8],

@@ -7,9 +7,7 @@
 //! brick in 0.5–1.2 µs against 1.0–2.1 and the payloads are 12–24 % smaller
 //! (`docs/PERFORMANCE.md`, "Version 5: a zstd dictionary").
 
-use rayon::prelude::*;
-
-use super::codec::{compress_frame, new_compressor_for, ZSTD_LEVEL};
+use super::codec::{compress_frames, ZSTD_LEVEL};
 
 /// The size the writer asks zstd's trainer for.
 pub const DICTIONARY_BYTES: usize = 16 << 10;
@@ -51,17 +49,10 @@ pub fn train<F: AsRef<[u8]> + Sync>(frames: &[F]) -> std::io::Result<Option<Vec<
     };
     let prepared = zstd::dict::EncoderDictionary::copy(&dictionary, ZSTD_LEVEL);
     let compressed = |with: Option<&zstd::dict::EncoderDictionary<'_>>| -> std::io::Result<usize> {
-        let sizes: Vec<std::io::Result<usize>> = frames
-            .par_iter()
-            .map_init(
-                || new_compressor_for(with),
-                |c, frame| {
-                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
-                    Ok(compress_frame(c, frame.as_ref())?.len())
-                },
-            )
-            .collect();
-        sizes.into_iter().sum()
+        compress_frames(frames, with)
+            .into_iter()
+            .map(|p| p.map(|p| p.len()))
+            .sum()
     };
     let pays = compressed(Some(&prepared))? + dictionary.len() < compressed(None)?;
     Ok(pays.then_some(dictionary))

@@ -37,8 +37,8 @@ use crate::voxmap::{
     VoxmapCounts, MAX_LAYERS,
 };
 use codec::{
-    compress_frame, decode_payload, decode_payload_into, distance_fault, encode_brick, median_frame, new_compressor,
-    new_compressor_for, DecodeError, ZSTD_LEVEL,
+    compress_frame, compress_frames, decode_payload, decode_payload_into, distance_fault, encode_brick, median_frame,
+    new_compressor, new_compressor_for, DecodeError, ZSTD_LEVEL,
 };
 use dictionary::{Dictionary, TRAINING_BRICKS};
 use format::{

@@ -26,7 +26,7 @@ pub struct Header {
 }
 
 impl Header {
-    /// Whether the file's bricks carry signed distances (versions 2 to 5).
+    /// Whether the file's bricks carry signed distances (versions 2 to 6).
     pub fn has_distances(&self) -> bool {
         has_distances(self.version)
     }

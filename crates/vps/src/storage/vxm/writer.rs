@@ -130,6 +130,12 @@ pub(super) struct PendingBrick {
     inner: u64,
 }
 
+impl AsRef<[u8]> for PendingBrick {
+    fn as_ref(&self) -> &[u8] {
+        &self.frame
+    }
+}
+
 impl std::fmt::Debug for VoxmapWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("VoxmapWriter")
@@ -426,16 +432,7 @@ impl VoxmapWriter {
         let DictionaryState::Trained { prepared, .. } = &self.dictionary else {
             return Err(self.invalid("the dictionary is not trained".into()));
         };
-        let payloads: Vec<std::io::Result<Vec<u8>>> = frames
-            .par_iter()
-            .map_init(
-                || new_compressor_for(prepared.as_ref()),
-                |c, b| {
-                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
-                    compress_frame(c, &b.frame)
-                },
-            )
-            .collect();
+        let payloads = compress_frames(&frames, prepared.as_ref());
         for (b, payload) in frames.iter().zip(payloads) {
             let payload = payload.map_err(self.io("compress a brick for"))?;
             self.push_payload(b.key, &payload, b.surface, b.inner)?;
