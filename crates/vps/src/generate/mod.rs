@@ -143,7 +143,9 @@ pub struct VoxelizeReport {
     pub interface_voxels: u64,
     /// Time to find the surface.
     pub t_surface: Duration,
-    /// Time of the flood fill.
+    /// Time of the fill: the flood fill from outside, or each object's inside (by parity or
+    /// by winding number). Out of core, objects are filled slab by slab with the layers, and
+    /// this is only their preparation.
     pub t_fill: Duration,
     /// Time of the layers and brick assembly.
     pub t_layers: Duration,
@@ -185,31 +187,31 @@ pub fn voxelize_with(
 
     phase("surface");
     let t = Instant::now();
-    let (surface, objects) = match params.fill {
-        Fill::Scene => (surface::mark_surface(&grid, &mesh.triangles, params.navigation), None),
-        Fill::Objects | Fill::Winding => {
-            let (surface, inside, open, interface) = objects_surface(&grid, mesh, params.navigation, params.fill);
-            report.open_objects = open;
-            report.interface_voxels = interface;
-            (surface, Some(inside))
-        }
+    let surface = match params.fill {
+        Fill::Scene => surface::mark_surface(&grid, &mesh.triangles, params.navigation),
+        Fill::Objects | Fill::Winding => objects_surface(&grid, mesh, params.navigation),
     };
     report.t_surface = t.elapsed();
+
+    phase("fill");
+    let t = Instant::now();
+    let (surface, solid) = match params.fill {
+        Fill::Scene => {
+            let outside = Outside::flood(grid.brick_dims(), &surface.bricks);
+            (surface, Solid::Scene { outside, base: 0 })
+        }
+        Fill::Objects | Fill::Winding => {
+            let (surface, inside, open, interface) = objects_inside(&grid, mesh, surface, params.fill);
+            report.open_objects = open;
+            report.interface_voxels = interface;
+            (surface, Solid::Objects(inside))
+        }
+    };
+    report.t_fill = t.elapsed();
     report.nav = surface.stats;
     report.surface_voxels = surface.voxel_count();
     report.surface_bricks = surface.bricks.len();
     report.chunks = surface.chunks;
-
-    phase("fill");
-    let t = Instant::now();
-    let solid = match objects {
-        None => Solid::Scene {
-            outside: Outside::flood(grid.brick_dims(), &surface.bricks),
-            base: 0,
-        },
-        Some(inside) => Solid::Objects(inside),
-    };
-    report.t_fill = t.elapsed();
     let mut voxmap = assemble(grid, params.layers, &surface.bricks, &solid, &mut report, phase);
     report.leaks = voxmap.counts().inner_voxels == 0;
     if params.distances {
@@ -222,16 +224,10 @@ pub fn voxelize_with(
     Ok((voxmap, report))
 }
 
-/// The surface of each object on its own, the inside of each (by `fill`, objects or winding),
-/// and their unions (the scene's surface, sorted by key, and [`ObjectsInside`]), with the
-/// number of open objects. Objects are done in parallel; the union of the surfaces is the
-/// scene's surface, so no triangle is tested twice.
-fn objects_surface(
-    grid: &Grid,
-    mesh: &Mesh,
-    nav: Navigation,
-    fill: Fill,
-) -> (surface::SurfaceBricks, ObjectsInside, usize, u64) {
+/// The surface of each object on its own, and their union, the scene's surface (sorted by
+/// key). Objects are done in parallel; the union of the surfaces is the scene's surface, so no
+/// triangle is tested twice.
+fn objects_surface(grid: &Grid, mesh: &Mesh, nav: Navigation) -> surface::SurfaceBricks {
     let surfaces: Vec<surface::SurfaceBricks> = mesh
         .objects
         .par_iter()
@@ -245,7 +241,23 @@ fn objects_surface(
         chunks += s.chunks;
         all.extend(s.bricks);
     }
-    let bricks = union_by_key(all);
+    surface::SurfaceBricks {
+        bricks: union_by_key(all),
+        stats,
+        chunks,
+    }
+}
+
+/// The inside of each object (by `fill`, objects or winding) and their union
+/// ([`ObjectsInside`]), given the scene's `surface`: that surface with the winding fill's
+/// interface voxels added, the inside, the number of open objects and of interface voxels.
+fn objects_inside(
+    grid: &Grid,
+    mesh: &Mesh,
+    surface: surface::SurfaceBricks,
+    fill: Fill,
+) -> (surface::SurfaceBricks, ObjectsInside, usize, u64) {
+    let bricks = surface.bricks;
     // Per object: its inside, whether it is closed, and its interface voxels.
     type ObjectFill = (ObjectsInside, bool, Vec<(u64, crate::voxmap::Mask512)>);
     let per_object: Vec<ObjectFill> = mesh
@@ -283,8 +295,7 @@ fn objects_surface(
     bricks.extend(interface);
     let surface = surface::SurfaceBricks {
         bricks: union_by_key(bricks),
-        stats,
-        chunks,
+        ..surface
     };
     (surface, inside.finish(), open, interface_voxels)
 }
