@@ -255,14 +255,13 @@ fn closed_consistent_meshes_give_exactly_the_objects_fill() {
     }
 }
 
-/// A soup of loose triangles, each edge a boundary edge (more than the 16,384 past which the
-/// fill cuts blocks near triangles down to single voxels): the fill finishes and agrees with
-/// the reference. It used to cut a single voxel near a triangle into itself, forever (a
-/// scanned monastery of the shared meshes, `samurai_monastery.obj`, never finished).
+/// A soup of loose triangles, each edge a boundary edge (27,648 of them): the fill finishes
+/// and agrees with the reference. It used to cut a single voxel near a triangle into itself,
+/// forever (a scanned monastery of the shared meshes, `samurai_monastery.obj`, never
+/// finished).
 #[test]
 fn a_soup_of_loose_triangles_finishes_and_is_solid() {
     let tris = shattered(shapes::sphere(DVec3::new(0.3, 0.2, 0.1), 10.0, 48, 96), 0.98);
-    assert!(3 * tris.len() > 16_384, "{} triangles", tris.len());
     let mesh = assembly(vec![("shattered", tris)]);
     let (done, finished) = std::sync::mpsc::channel();
     let worker = mesh.clone();

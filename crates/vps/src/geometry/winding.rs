@@ -212,26 +212,6 @@ impl AreaBound {
         AreaBound { levels, tris }
     }
 
-    /// Whether some triangle's bounding sphere meets the ball of `radius` about `c`.
-    pub fn touches(&self, c: DVec3, radius: f64) -> bool {
-        let Some(top) = self.levels.len().checked_sub(1) else {
-            return false;
-        };
-        let mut stack = vec![(top, 0usize)];
-        while let Some((level, i)) = stack.pop() {
-            let s = self.levels[level][i];
-            if (s.centre - c).length() > s.radius + radius {
-                continue;
-            }
-            if level == 0 {
-                return true;
-            }
-            let n = self.levels[level - 1].len();
-            stack.extend((FANOUT * i..(FANOUT * (i + 1)).min(n)).map(|j| (level - 1, j)));
-        }
-        false
-    }
-
     /// The winding number at `p` to within a bound: the triangles near `p` summed exactly, the
     /// others bounded by their areas. Returns `(w_near, bound)`, with `|w − w_near| ≤ bound`.
     pub fn near_sum(&self, p: DVec3) -> (f64, f64) {
@@ -286,7 +266,7 @@ impl AreaBound {
 }
 
 /// Interleave the low 10 bits of three numbers (z-order).
-fn morton(x: u64, y: u64, z: u64) -> u64 {
+pub(crate) fn morton(x: u64, y: u64, z: u64) -> u64 {
     let spread = |mut v: u64| {
         v &= 0x3ff;
         v = (v | (v << 16)) & 0x0300_00ff;

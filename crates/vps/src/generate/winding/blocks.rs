@@ -155,9 +155,6 @@ impl<'a> Tile<'a> {
     }
 }
 
-/// Objects with more boundary edges than this build no model for blocks their triangles reach.
-pub(super) const LONG_BOUNDARY: usize = 16384;
-
 /// Blocks of fewer voxels are not first tested against the triangles' areas: that test
 /// decides blocks far from the object, which are found while blocks are large, and costs a
 /// walk of the triangles' tree.
@@ -184,10 +181,10 @@ pub(super) fn decide(tile: &Tile, block: Block, runs: &mut Runs, stack: &mut Vec
     if block.volume() >= AREA_TEST_VOXELS && !obj.area.may_reach(c, radius, THRESHOLD) {
         return;
     }
-    // With a long boundary (loose triangles), models cost too much where triangles are: cut
-    // such blocks down to voxels, which the nearby triangles mostly decide alone. A single
-    // voxel goes on to be decided: cut, it would be itself again, forever.
-    if obj.boundary.len() > LONG_BOUNDARY && block.volume() > 1 && obj.area.touches(c, radius) {
+    // No model can be made for a ball a boundary edge comes into (found in the edges' tree,
+    // not by the model's sum over all of them): cut the block, down to voxels (a single voxel
+    // goes on to be decided: cut, it would be itself again, forever).
+    if block.volume() > 1 && obj.edge_within(c, radius) {
         block.refine(stack);
         return;
     }

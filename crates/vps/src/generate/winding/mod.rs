@@ -34,6 +34,7 @@ use crate::voxmap::solid::ObjectsInside;
 use crate::voxmap::Mask512;
 
 mod blocks;
+mod edge_tree;
 mod edges;
 mod object;
 

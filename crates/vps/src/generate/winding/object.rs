@@ -2,6 +2,7 @@
 //! their net uses), the box of voxels that may be inside, and the boundary part `b` of the
 //! winding number with its Taylor models.
 
+use super::edge_tree::EdgeTree;
 use super::edges::EdgeColumns;
 use super::*;
 
@@ -27,6 +28,8 @@ pub struct WindingObject {
     pub(super) boundary: Vec<BoundaryEdge>,
     /// The same edges as columns, for the sums over them.
     columns: EdgeColumns,
+    /// The same edges in a tree, for the questions blocks ask of them.
+    tree: EdgeTree,
     /// Bounds `|w|` from the triangles' areas, in grid units: for open objects only.
     pub(super) area: AreaBound,
     /// First and one-past-last voxel, per axis, whose centre may be inside: within the
@@ -127,6 +130,7 @@ impl WindingObject {
         let boundary: Vec<BoundaryEdge> = boundary.into_iter().map(|(_, e)| e).collect();
         WindingObject {
             columns: EdgeColumns::new(&boundary),
+            tree: EdgeTree::new(&boundary),
             boundary,
             area,
             lo,
@@ -165,29 +169,51 @@ impl WindingObject {
     /// Whether some boundary edge's strip (vertical, from the edge up, or `down`) meets the
     /// box.
     pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
-        self.boundary.iter().any(|e| {
-            let beyond = if down { e.hi.z < lo.z } else { e.lo.z > hi.z };
-            if beyond || e.hi.x < lo.x || e.lo.x > hi.x || e.hi.y < lo.y || e.lo.y > hi.y {
-                return false;
-            }
-            // Clip the edge's shadow to the box's x–y rectangle (Liang–Barsky); the strip
-            // meets the box if the edge is no higher (lower) than the box's top (bottom) over
-            // that part.
-            let d = e.b - e.a;
-            let (mut t0, mut t1) = (0.0f64, 1.0f64);
-            for a in 0..2 {
-                if d[a] == 0.0 {
-                    if e.a[a] < lo[a] || e.a[a] > hi[a] {
-                        return false;
-                    }
-                } else {
-                    let (u, v) = ((lo[a] - e.a[a]) / d[a], (hi[a] - e.a[a]) / d[a]);
-                    t0 = t0.max(u.min(v));
-                    t1 = t1.min(u.max(v));
+        if self.boundary.len() <= TREE_EDGES {
+            return self.boundary.iter().any(|e| e.strip_meets(lo, hi, down));
+        }
+        self.tree.strip_meets(lo, hi, down)
+    }
+
+    /// Whether, on a long boundary, some edge comes within `radius` of `c`: then no model of
+    /// `b` can be made for the ball ([`Self::taylor`] gives none). `false` for a short one,
+    /// where trying the model costs less than asking.
+    pub(super) fn edge_within(&self, c: DVec3, radius: f64) -> bool {
+        self.boundary.len() > TREE_EDGES && self.tree.comes_within(c, radius)
+    }
+}
+
+/// Boundaries of more edges than this are asked through their tree: on a car's open body of
+/// 1,136 edges (the VW beetle), the tree made the fill 27 % slower; on a scanned monastery of
+/// 38,453, 2.6 times faster.
+const TREE_EDGES: usize = 4096;
+
+impl BoundaryEdge {
+    /// Whether the edge's strip (vertical, from the edge up, or `down`) meets the box.
+    #[inline]
+    pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
+        let e = self;
+        let beyond = if down { e.hi.z < lo.z } else { e.lo.z > hi.z };
+        if beyond || e.hi.x < lo.x || e.lo.x > hi.x || e.hi.y < lo.y || e.lo.y > hi.y {
+            return false;
+        }
+        // Clip the edge's shadow to the box's x–y rectangle (Liang–Barsky); the strip
+        // meets the box if the edge is no higher (lower) than the box's top (bottom) over
+        // that part.
+        let d = e.b - e.a;
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for a in 0..2 {
+            if d[a] == 0.0 {
+                if e.a[a] < lo[a] || e.a[a] > hi[a] {
+                    return false;
                 }
+            } else {
+                let (u, v) = ((lo[a] - e.a[a]) / d[a], (hi[a] - e.a[a]) / d[a]);
+                t0 = t0.max(u.min(v));
+                t1 = t1.min(u.max(v));
             }
-            let (z0, z1) = (e.a.z + d.z * t0, e.a.z + d.z * t1);
-            t0 <= t1 && if down { z0.max(z1) >= lo.z } else { z0.min(z1) <= hi.z }
-        })
+        }
+        let (z0, z1) = (e.a.z + d.z * t0, e.a.z + d.z * t1);
+        t0 <= t1 && if down { z0.max(z1) >= lo.z } else { z0.min(z1) <= hi.z }
     }
 }
