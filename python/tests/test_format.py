@@ -1,12 +1,15 @@
 """Files the library writes, read by `vxm_spec.py` (a reader written from docs/FORMAT.md alone),
 against the library's own lookups and against distances computed here from the triangles."""
 
+import struct
+import zlib
+
 import numpy as np
 import pytest
 
 import vps
 from conftest import box, sphere
-from vxm_spec import VOXELS, read
+from vxm_spec import VOXELS, SpecError, read
 
 SIZE = 0.25
 LAYERS = 2
@@ -95,6 +98,28 @@ def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
     voxmap = vps.Voxmap.open(path)
     assert np.array_equal(voxmap.values(points), np.array(values, dtype=np.int8))
     assert np.array_equal(voxmap.distances(points), np.array(steps) / 32 * SIZE)
+
+
+def test_a_dictionary_zstd_does_not_load_is_refused_at_open(tmp_path):
+    """A dictionary with its magic and id but entropy tables zstd cannot read, its CRC and the
+    header's made right again: the spec refuses the file before it reads a brick, and so
+    does the library."""
+    made = vps.voxelize(vps.Mesh(*sphere(center=(0.31, 0.17, 0.23), radius=15.0, rings=48, segments=96)), SIZE,
+                        layers=LAYERS, distances=True)
+    path = tmp_path / "large.vxm"
+    made.write(path)
+    data = bytearray(path.read_bytes())
+    size = struct.unpack_from("<Q", data, 152)[0]
+    assert size > 64 and data[192:196] == bytes.fromhex("37a430ec")
+    data[200:232] = b"\xff" * 32
+    struct.pack_into("<I", data, 184, zlib.crc32(data[192:192 + size]))
+    struct.pack_into("<I", data, 188, zlib.crc32(data[:188]))
+    broken = tmp_path / "broken.vxm"
+    broken.write_bytes(bytes(data))
+    with pytest.raises(SpecError, match="does not load the dictionary"):
+        read(broken, distances_of=set())
+    with pytest.raises(Exception, match="dictionary"):
+        vps.Voxmap.open(broken)
 
 
 def test_a_voxmap_without_distances_reads_by_the_spec_as_version_1(tmp_path):

@@ -97,10 +97,15 @@ def read(path, distances_of=None):
     dictionary = data[HEADER_BYTES:payload_offset]
     if zlib.crc32(dictionary) != dictionary_crc:
         raise SpecError("dictionary CRC")
-    # zstd takes bytes without the dictionary magic as raw content, as this does. (Whether
-    # zstd can load it is found when the first brick is decompressed: a file without bricks
-    # is not checked for it.)
+    # zstd takes bytes without the dictionary magic as raw content, as this does. It must
+    # load as a decompression dictionary, which a decompression makes it do (that of a frame
+    # made without it): checked here, so that a file of no bricks is checked too.
     zdict = zstandard.ZstdCompressionDict(dictionary) if dictionary else None
+    if zdict is not None:
+        try:
+            zstandard.ZstdDecompressor(dict_data=zdict).decompress(zstandard.ZstdCompressor().compress(b""))
+        except zstandard.ZstdError as e:
+            raise SpecError(f"zstd does not load the dictionary: {e}") from e
     names = ["surface_voxels", "inner_voxels", "bricks_stored", "inside_tile_bricks", "inside_runs",
              "payload_offset", "payload_bytes", "index_offset", "runs_offset", "file_bytes"]
     counts = {n: u64(64 + 8 * i) for i, n in enumerate(names)}
