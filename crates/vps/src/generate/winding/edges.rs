@@ -14,8 +14,9 @@ use super::FOUR_PI;
 use crate::geometry::atan2::atan2;
 use crate::geometry::winding::hessian_bound;
 
-/// Edges summed side by side.
-pub(super) const LANES: usize = 4;
+/// Edges summed side by side: eight fill AVX-512's vectors, which ran both sums in about half
+/// the time of AVX2's four (on AVX2 alone, eight are as fast as four).
+pub(super) const LANES: usize = 8;
 
 /// Boundary edges as columns (grid units), padded to whole lanes with edges of no weight.
 #[derive(Clone, Debug, Default)]
@@ -85,7 +86,7 @@ impl EdgeColumns {
 
 // Both sums are compiled for wider vectors too and chosen by what the processor has: the same
 // operations in the same order, so the same bits (no fused multiply-adds are formed).
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+avx"))]
 fn strip_sum(cols: &EdgeColumns, p: DVec3, down: bool) -> f64 {
     let pole = if down { -1.0 } else { 1.0 };
     let mut sum: Lanes = [0.0; LANES];
@@ -102,7 +103,7 @@ fn strip_sum(cols: &EdgeColumns, p: DVec3, down: bool) -> f64 {
     total(sum) / FOUR_PI
 }
 
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+avx"))]
 fn taylor(cols: &EdgeColumns, c: DVec3, radius: f64, down: bool) -> Option<(f64, DVec3, f64)> {
     // Strips hanging down use the −z pole: mirror the angle's inputs (see
     // `strip_solid_angle_down`); the gradient is the same field either way.
@@ -158,7 +159,7 @@ fn lane(v: &[Lanes; 3], l: usize) -> DVec3 {
 /// The lanes added in a fixed order.
 #[inline(always)]
 fn total(v: Lanes) -> f64 {
-    (v[0] + v[1]) + (v[2] + v[3])
+    ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
 }
 
 #[cfg(test)]
