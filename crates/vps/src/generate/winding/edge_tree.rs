@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::object::BoundaryEdge;
+use super::object::{strip_may_meet, BoundaryEdge};
 use crate::geometry::closest::closest_point_on_segment;
 use crate::geometry::winding::morton;
 
@@ -94,10 +94,7 @@ impl EdgeTree {
     /// `[lo, hi]`.
     pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
         self.any(
-            |b| {
-                let beyond = if down { b.hi.z < lo.z } else { b.lo.z > hi.z };
-                !(beyond || b.hi.x < lo.x || b.lo.x > hi.x || b.hi.y < lo.y || b.lo.y > hi.y)
-            },
+            |b| strip_may_meet(b.lo, b.hi, lo, hi, down),
             |e| e.strip_meets(lo, hi, down),
         )
     }

@@ -28,8 +28,9 @@ pub struct WindingObject {
     pub(super) boundary: Vec<BoundaryEdge>,
     /// The same edges as columns, for the sums over them.
     columns: EdgeColumns,
-    /// The same edges in a tree, for the questions blocks ask of them.
-    tree: EdgeTree,
+    /// The same edges in a tree, for the questions blocks ask of them: for a boundary of
+    /// more than [`TREE_EDGES`] only.
+    tree: Option<EdgeTree>,
     /// Bounds `|w|` from the triangles' areas, in grid units: for open objects only.
     pub(super) area: AreaBound,
     /// First and one-past-last voxel, per axis, whose centre may be inside: within the
@@ -130,7 +131,7 @@ impl WindingObject {
         let boundary: Vec<BoundaryEdge> = boundary.into_iter().map(|(_, e)| e).collect();
         WindingObject {
             columns: EdgeColumns::new(&boundary),
-            tree: EdgeTree::new(&boundary),
+            tree: (boundary.len() > TREE_EDGES).then(|| EdgeTree::new(&boundary)),
             boundary,
             area,
             lo,
@@ -169,17 +170,17 @@ impl WindingObject {
     /// Whether some boundary edge's strip (vertical, from the edge up, or `down`) meets the
     /// box.
     pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
-        if self.boundary.len() <= TREE_EDGES {
-            return self.boundary.iter().any(|e| e.strip_meets(lo, hi, down));
+        match &self.tree {
+            Some(tree) => tree.strip_meets(lo, hi, down),
+            None => self.boundary.iter().any(|e| e.strip_meets(lo, hi, down)),
         }
-        self.tree.strip_meets(lo, hi, down)
     }
 
     /// Whether, on a long boundary, some edge comes within `radius` of `c`: then no model of
     /// `b` can be made for the ball ([`Self::taylor`] gives none). `false` for a short one,
     /// where trying the model costs less than asking.
     pub(super) fn edge_within(&self, c: DVec3, radius: f64) -> bool {
-        self.boundary.len() > TREE_EDGES && self.tree.comes_within(c, radius)
+        self.tree.as_ref().is_some_and(|tree| tree.comes_within(c, radius))
     }
 }
 
@@ -193,8 +194,7 @@ impl BoundaryEdge {
     #[inline]
     pub(super) fn strip_meets(&self, lo: DVec3, hi: DVec3, down: bool) -> bool {
         let e = self;
-        let beyond = if down { e.hi.z < lo.z } else { e.lo.z > hi.z };
-        if beyond || e.hi.x < lo.x || e.lo.x > hi.x || e.hi.y < lo.y || e.lo.y > hi.y {
+        if !strip_may_meet(e.lo, e.hi, lo, hi, down) {
             return false;
         }
         // Clip the edge's shadow to the box's x–y rectangle (Liang–Barsky); the strip
@@ -216,4 +216,13 @@ impl BoundaryEdge {
         let (z0, z1) = (e.a.z + d.z * t0, e.a.z + d.z * t1);
         t0 <= t1 && if down { z0.max(z1) >= lo.z } else { z0.min(z1) <= hi.z }
     }
+}
+
+/// Whether the strip (up, or `down`) of an edge within the box `[elo, ehi]` may meet the box
+/// `[lo, hi]`: not if the edge's box lies wholly beside the other's in x or y, or above its
+/// top (below its bottom for strips hanging down).
+#[inline]
+pub(super) fn strip_may_meet(elo: DVec3, ehi: DVec3, lo: DVec3, hi: DVec3, down: bool) -> bool {
+    let beyond = if down { ehi.z < lo.z } else { elo.z > hi.z };
+    !(beyond || ehi.x < lo.x || elo.x > hi.x || ehi.y < lo.y || elo.y > hi.y)
 }
