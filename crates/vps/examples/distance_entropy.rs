@@ -3,10 +3,13 @@
 //! and the distance residuals; each part is compressed as the writer compresses frames (zstd
 //! level 1, a dictionary trained on the first 4,096). Beside zstd, the entropy of the distance
 //! residuals: for codec 6's prediction, for codec 5's (nine candidates, serial along a row),
-//! and for codec 6's given how far its candidates spread, the context a coder with several
-//! tables could use. Each entropy is the bytes an ideal coder of those residuals would need:
-//! adding it to the rest of the file bounds what better entropy coding could reach. One JSON
-//! line; with the version 1 file of the same mesh, each also as a ratio to it.
+//! and, given contexts a coder with several tables could use, for codec 6's by how far its
+//! candidates spread, codec 6's by that spread and the residual of the voxel before, and codec
+//! 5's by the spread of its nine. Each entropy is the bytes an ideal coder of those residuals
+//! would need with tables fitted to the file (a real one would also store its tables and end
+//! each brick's stream): adding it to the rest of the file bounds what better entropy coding
+//! could reach. One JSON line; with the version 1 file of the same mesh, each also as a ratio
+//! to it.
 //!
 //! ```text
 //! cargo run --release -p vps --example distance_entropy -- FILE.vxm [VERSION1.vxm]
@@ -43,10 +46,22 @@ enum Prediction {
     Nine,
 }
 
-/// A stored voxel's distance residual and the spread (largest less smallest) of its row-free
-/// candidates, `None` for fewer than two: the predictor of `docs/FORMAT.md` written out
-/// plainly, voxel by voxel.
-fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<(i32, Option<i32>)> {
+/// A stored voxel's distance residual, with two contexts a coder with several tables could use.
+#[derive(Clone, Copy)]
+struct Residual {
+    /// The true distance less the prediction.
+    r: i32,
+    /// How far the candidates of the median spread (largest less smallest), `None` for fewer
+    /// than two: codec 6's four row-free ones, or all nine for codec 5.
+    spread: Option<i32>,
+    /// The residual of the voxel before along x, if it is stored: known to a decoder that
+    /// decodes a row voxel by voxel, as any entropy decoder does.
+    before: Option<i32>,
+}
+
+/// The residuals of a brick's stored voxels under `prediction`: the predictor of
+/// `docs/FORMAT.md` written out plainly, voxel by voxel.
+fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<Residual> {
     let (values, d) = (&brick.values, brick.distances.as_ref().expect("a file with distances"));
     let at = |x: i32, y: i32, z: i32| -> Option<i32> {
         let inside = (0..8).contains(&x) && (0..8).contains(&y) && (0..8).contains(&z);
@@ -54,7 +69,7 @@ fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<(i32, Option<i3
         (inside && values[i] >= -1).then(|| i32::from(d[i]))
     };
     let plane = |p: Option<i32>, q: Option<i32>, pq: Option<i32>| Some(p? + q? - pq?);
-    let mut out = Vec::new();
+    let mut out: Vec<Residual> = Vec::new();
     for i in 0..512 {
         if values[i as usize] < -1 {
             continue;
@@ -70,8 +85,6 @@ fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<(i32, Option<i3
         .into_iter()
         .flatten()
         .collect();
-        candidates.sort_unstable();
-        let spread = (candidates.len() >= 2).then(|| candidates[candidates.len() - 1] - candidates[0]);
         let a2 = at(x - 2, y, z);
         if prediction == Prediction::Nine {
             candidates.extend(
@@ -85,8 +98,9 @@ fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<(i32, Option<i3
                 .into_iter()
                 .flatten(),
             );
-            candidates.sort_unstable();
         }
+        candidates.sort_unstable();
+        let spread = (candidates.len() >= 2).then(|| candidates[candidates.len() - 1] - candidates[0]);
         let fallback = match prediction {
             Prediction::Rows => plane(a, a, a2),
             Prediction::Nine => None,
@@ -95,15 +109,22 @@ fn residuals(brick: &StoredBrick, prediction: Prediction) -> Vec<(i32, Option<i3
             0 => fallback.or(a).or(b).or(c).unwrap_or(32 * i32::from(values[i as usize])),
             k => candidates[(k - 1) / 2],
         };
-        out.push((i32::from(d[i as usize]) - p, spread));
+        // Voxels are pushed in index order, so the last one is the voxel before along x
+        // exactly when that voxel is stored.
+        let before = a.and_then(|_| out.last().map(|last| last.r));
+        out.push(Residual {
+            r: i32::from(d[i as usize]) - p,
+            spread,
+            before,
+        });
     }
     out
 }
 
 /// The residual stream of codecs 4 to 6: zigzagged, one byte, or 255 and a `u16`.
-fn stream(residuals: &[(i32, Option<i32>)]) -> Vec<u8> {
+fn stream(residuals: &[Residual]) -> Vec<u8> {
     let mut out = Vec::new();
-    for &(r, _) in residuals {
+    for &Residual { r, .. } in residuals {
         let z = ((r << 1) ^ (r >> 31)) as u32;
         match u8::try_from(z) {
             Ok(byte) if byte != u8::MAX => out.push(byte),
@@ -138,6 +159,11 @@ fn spread_class(spread: Option<i32>) -> i32 {
         Some(s) if s < 4 => s,
         Some(s) => 34 - s.leading_zeros() as i32,
     }
+}
+
+/// The residual before in a few classes: its magnitude up to 6, `-1` with none.
+fn before_class(before: Option<i32>) -> i32 {
+    before.map_or(-1, |r| r.abs().min(6))
 }
 
 fn main() -> Result<()> {
@@ -176,15 +202,22 @@ fn main() -> Result<()> {
     let values: Vec<Vec<u8>> = frames.iter().map(|f| f[..512].to_vec()).collect();
     let distances: Vec<Vec<u8>> = frames.iter().map(|f| f[512..].to_vec()).collect();
     let values_zstd = compressed(&values)?;
-    let entropy_rows = entropy_bytes(rows.iter().flatten().map(|&(r, _)| ((), r)));
-    let entropy_nine = entropy_bytes(nine.iter().flatten().map(|&(r, _)| ((), r)));
-    let entropy_spread = entropy_bytes(rows.iter().flatten().map(|&(r, s)| (spread_class(s), r)));
+    let entropy_rows = entropy_bytes(rows.iter().flatten().map(|e| ((), e.r)));
+    let entropy_nine = entropy_bytes(nine.iter().flatten().map(|e| ((), e.r)));
+    let entropy_spread = entropy_bytes(rows.iter().flatten().map(|e| (spread_class(e.spread), e.r)));
+    let entropy_spread_before = entropy_bytes(
+        rows.iter()
+            .flatten()
+            .map(|e| ((spread_class(e.spread), before_class(e.before)), e.r)),
+    );
+    let entropy_nine_spread = entropy_bytes(nine.iter().flatten().map(|e| (spread_class(e.spread), e.r)));
     let stored: usize = rows.iter().map(Vec::len).sum();
     let bound = |distances: f64| rest as f64 + values_zstd as f64 + distances;
     let mut json = format!(
         "{{\"file\":{:?},\"file_bytes\":{},\"bricks\":{},\"stored_distances\":{stored},\"rest_bytes\":{rest},\
          \"frames_zstd\":{},\"values_zstd\":{values_zstd},\"distances_zstd\":{},\
-         \"entropy_rows\":{entropy_rows:.0},\"entropy_nine\":{entropy_nine:.0},\"entropy_rows_by_spread\":{entropy_spread:.0}",
+         \"entropy_rows\":{entropy_rows:.0},\"entropy_nine\":{entropy_nine:.0},\"entropy_rows_by_spread\":{entropy_spread:.0},\
+         \"entropy_rows_by_spread_and_before\":{entropy_spread_before:.0},\"entropy_nine_by_spread\":{entropy_nine_spread:.0}",
         path,
         header.file_bytes,
         bricks.len(),
@@ -195,11 +228,14 @@ fn main() -> Result<()> {
         let v1_bytes = std::fs::metadata(v1).map_err(|e| format!("{v1}: {e}"))?.len() as f64;
         json += &format!(
             ",\"version1_bytes\":{v1_bytes},\"ratio\":{:.3},\"ratio_bound_rows\":{:.3},\"ratio_bound_nine\":{:.3},\
-             \"ratio_bound_rows_by_spread\":{:.3}",
+             \"ratio_bound_rows_by_spread\":{:.3},\"ratio_bound_rows_by_spread_and_before\":{:.3},\
+             \"ratio_bound_nine_by_spread\":{:.3}",
             header.file_bytes as f64 / v1_bytes,
             bound(entropy_rows) / v1_bytes,
             bound(entropy_nine) / v1_bytes,
             bound(entropy_spread) / v1_bytes,
+            bound(entropy_spread_before) / v1_bytes,
+            bound(entropy_nine_spread) / v1_bytes,
         );
     }
     println!("{json}}}");
