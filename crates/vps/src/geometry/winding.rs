@@ -158,7 +158,8 @@ struct Sphere {
     area: f64,
 }
 
-const FANOUT: usize = 8;
+/// Children of a node of the trees built by [`levels_above`].
+pub(crate) const FANOUT: usize = 8;
 
 impl AreaBound {
     /// The tree over `tris`.
@@ -174,41 +175,30 @@ impl AreaBound {
                 let centre = (t[0] + t[1] + t[2]) / 3.0;
                 let radius = t.iter().map(|v| (*v - centre).length()).fold(0.0, f64::max);
                 let area = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
-                let q = ((centre - lo) / scale * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
-                (
-                    morton(q.x as u64, q.y as u64, q.z as u64),
-                    Sphere { centre, radius, area },
-                )
+                (morton_in(centre, lo, scale), Sphere { centre, radius, area })
             })
             .collect();
         let mut order: Vec<usize> = (0..leaves.len()).collect();
         order.sort_unstable_by_key(|&i| leaves[i].0);
         let tris: Vec<Triangle> = order.iter().map(|&i| tris[i]).collect();
-        let mut levels = vec![order.iter().map(|&i| leaves[i].1).collect::<Vec<_>>()];
-        while levels.last().is_some_and(|l| l.len() > 1) {
-            let below = levels.last().expect("a level");
-            let up: Vec<Sphere> = below
-                .chunks(FANOUT)
-                .map(|group| {
-                    let (mut a, mut b) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-                    for s in group {
-                        a = a.min(s.centre - s.radius);
-                        b = b.max(s.centre + s.radius);
-                    }
-                    let centre = (a + b) * 0.5;
-                    let radius = group
-                        .iter()
-                        .map(|s| (s.centre - centre).length() + s.radius)
-                        .fold(0.0, f64::max);
-                    Sphere {
-                        centre,
-                        radius,
-                        area: group.iter().map(|s| s.area).sum(),
-                    }
-                })
-                .collect();
-            levels.push(up);
-        }
+        let leaves = order.iter().map(|&i| leaves[i].1).collect();
+        let levels = levels_above(leaves, |group| {
+            let (mut a, mut b) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for s in group {
+                a = a.min(s.centre - s.radius);
+                b = b.max(s.centre + s.radius);
+            }
+            let centre = (a + b) * 0.5;
+            let radius = group
+                .iter()
+                .map(|s| (s.centre - centre).length() + s.radius)
+                .fold(0.0, f64::max);
+            Sphere {
+                centre,
+                radius,
+                area: group.iter().map(|s| s.area).sum(),
+            }
+        });
         AreaBound { levels, tris }
     }
 
@@ -265,8 +255,28 @@ impl AreaBound {
     }
 }
 
+/// The levels of a tree over `leaves` (already in the order wanted, Morton order for the
+/// trees of this crate): the leaves first, then each node made by `merge` from the next
+/// [`FANOUT`] of the level below, up to a single root. Node `i` of level `k + 1` holds nodes
+/// `FANOUT·i ..` of level `k`.
+pub(crate) fn levels_above<T>(leaves: Vec<T>, merge: impl Fn(&[T]) -> T) -> Vec<Vec<T>> {
+    let mut levels = vec![leaves];
+    while levels.last().is_some_and(|l| l.len() > 1) {
+        let up = levels.last().expect("a level").chunks(FANOUT).map(&merge).collect();
+        levels.push(up);
+    }
+    levels
+}
+
+/// The Morton key of `p` in the cube of side `scale` from `lo`, quantized to 1,024 steps an
+/// axis (outside the cube, clamped to it).
+pub(crate) fn morton_in(p: DVec3, lo: DVec3, scale: f64) -> u64 {
+    let q = ((p - lo) / scale * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
+    morton(q.x as u64, q.y as u64, q.z as u64)
+}
+
 /// Interleave the low 10 bits of three numbers (z-order).
-pub(crate) fn morton(x: u64, y: u64, z: u64) -> u64 {
+fn morton(x: u64, y: u64, z: u64) -> u64 {
     let spread = |mut v: u64| {
         v &= 0x3ff;
         v = (v | (v << 16)) & 0x0300_00ff;

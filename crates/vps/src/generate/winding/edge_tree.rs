@@ -7,10 +7,7 @@ use glam::DVec3;
 
 use super::object::{strip_may_meet, BoundaryEdge};
 use crate::geometry::closest::closest_point_on_segment;
-use crate::geometry::winding::morton;
-
-/// Children of a node.
-const FANOUT: usize = 8;
+use crate::geometry::winding::{levels_above, morton_in, FANOUT};
 
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug)]
@@ -38,24 +35,13 @@ impl EdgeTree {
             |(lo, hi), e| (lo.min(e.lo), hi.max(e.hi)),
         );
         let scale = (hi - lo).max_element().max(f64::MIN_POSITIVE);
-        let key = |e: &BoundaryEdge| {
-            let q = (((e.lo + e.hi) * 0.5 - lo) / scale * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
-            morton(q.x as u64, q.y as u64, q.z as u64)
-        };
         let mut edges = edges.to_vec();
-        edges.sort_by_cached_key(key);
-        let mut levels = vec![edges.iter().map(|e| Bounds { lo: e.lo, hi: e.hi }).collect::<Vec<_>>()];
-        while levels.last().is_some_and(|l| l.len() > 1) {
-            let below = levels.last().expect("a level");
-            let up = below
-                .chunks(FANOUT)
-                .map(|group| Bounds {
-                    lo: group.iter().fold(DVec3::splat(f64::INFINITY), |a, b| a.min(b.lo)),
-                    hi: group.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, b| a.max(b.hi)),
-                })
-                .collect();
-            levels.push(up);
-        }
+        edges.sort_by_cached_key(|e| morton_in((e.lo + e.hi) * 0.5, lo, scale));
+        let leaves = edges.iter().map(|e| Bounds { lo: e.lo, hi: e.hi }).collect();
+        let levels = levels_above(leaves, |group| Bounds {
+            lo: group.iter().fold(DVec3::splat(f64::INFINITY), |a, b| a.min(b.lo)),
+            hi: group.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, b| a.max(b.hi)),
+        });
         EdgeTree { levels, edges }
     }
 
