@@ -166,7 +166,7 @@ def test_contact_interpolates_the_distances_of_a_voxmap_that_has_them(tmp_path):
     stepped = vps.contact(wall, shell, pose, penetration="layers")
     assert smooth.force[2] > 0 and stepped.force[2] > 0
     assert smooth.force != stepped.force
-    # Written as a version 6 file, the same forces.
+    # Written as a version 7 file, the same forces.
     wall.write(tmp_path / "wall.vxm")
     assert vps.contact(vps.Voxmap.open(tmp_path / "wall.vxm"), shell, pose).force == smooth.force
     with pytest.raises(ValueError, match="penetration"):

@@ -51,7 +51,7 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
     path = tmp_path / "part.vxm"
     made.write(path)
     vxm = read(path)
-    assert vxm.version == 6 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
+    assert vxm.version == 7 and vxm.layers == LAYERS and vxm.voxel_size == SIZE
     assert vxm.counts["bricks_stored"] == len(vxm.bricks) > 0
     # Every voxel of every stored brick, and a voxel of each tile brick: tiles have no
     # stored distance and read as the reach, with the tile's sign.
@@ -80,9 +80,9 @@ def test_the_spec_reads_the_values_and_distances_the_library_looks_up(mesh, tmp_
 
 
 def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
-    """A part of some thousand bricks gets a zstd dictionary (codec 6): the spec reads every
-    brick's values through it, and the distances of a sample of bricks, as the library looks
-    them up."""
+    """A part of some thousand bricks gets a zstd dictionary (codec 7): the spec reads every
+    brick's values through it, and the distances of a sample of bricks through the rANS
+    tables, as the library looks them up."""
     made = vps.voxelize(vps.Mesh(*sphere(center=(0.31, 0.17, 0.23), radius=15.0, rings=48, segments=96)), SIZE,
                         layers=LAYERS, distances=True)
     path = tmp_path / "large.vxm"
@@ -90,7 +90,10 @@ def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
     keys = sorted(read(path, distances_of=set()).bricks)
     sample = set(keys[:8] + keys[len(keys) // 2 : len(keys) // 2 + 8] + keys[-8:])
     vxm = read(path, distances_of=sample)
-    assert vxm.version == 6 and len(keys) > 1000 and vxm.counts["dictionary_bytes"] > 0, vxm.counts
+    # Version 7's dictionary section is never empty (it holds the tables): its first u32 is
+    # the zstd dictionary's length.
+    zstd_bytes = struct.unpack_from("<I", path.read_bytes(), 192)[0]
+    assert vxm.version == 7 and len(keys) > 1000 and zstd_bytes > 0, (zstd_bytes, vxm.counts)
     voxels = np.vstack([brick_voxels(vxm, k) for k in sorted(sample)])
     values = [v for k in sorted(sample) for v in vxm.bricks[k][0]]
     steps = [d for k in sorted(sample) for d in vxm.bricks[k][1]]
@@ -101,17 +104,18 @@ def test_a_large_part_reads_by_the_spec_through_its_dictionary(tmp_path):
 
 
 def test_a_dictionary_zstd_does_not_load_is_refused_at_open(tmp_path):
-    """A dictionary with its magic and id but entropy tables zstd cannot read, its CRC and the
-    header's made right again: the spec refuses the file before it reads a brick, and so
-    does the library."""
+    """A zstd dictionary with its magic and id but entropy tables zstd cannot read, the
+    section's CRC and the header's made right again: the spec refuses the file before it
+    reads a brick, and so does the library. In version 7 the zstd dictionary starts at 196,
+    after its length (a u32), and the rANS tables follow it in the same section."""
     made = vps.voxelize(vps.Mesh(*sphere(center=(0.31, 0.17, 0.23), radius=15.0, rings=48, segments=96)), SIZE,
                         layers=LAYERS, distances=True)
     path = tmp_path / "large.vxm"
     made.write(path)
     data = bytearray(path.read_bytes())
     size = struct.unpack_from("<Q", data, 152)[0]
-    assert size > 64 and data[192:196] == bytes.fromhex("37a430ec")
-    data[200:232] = b"\xff" * 32
+    assert struct.unpack_from("<I", data, 192)[0] > 64 and data[196:200] == bytes.fromhex("37a430ec")
+    data[204:236] = b"\xff" * 32
     struct.pack_into("<I", data, 184, zlib.crc32(data[192:192 + size]))
     struct.pack_into("<I", data, 188, zlib.crc32(data[:188]))
     broken = tmp_path / "broken.vxm"

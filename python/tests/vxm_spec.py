@@ -1,12 +1,15 @@
 """A `.vxm` reader written from `docs/FORMAT.md` alone, in plain Python: a second reading of
 the spec, against which `test_format.py` checks the library's files and lookups.
 
-Slow and obvious on purpose (voxel by voxel, the median by sorting), and it does not import
-`vps`. It reads versions 1 to 6 (the tests give it the two this library writes, 1 and 6) and
-checks a file against the spec's rules: the header's fields and limits, the layout and its zero
-padding, every CRC, the dictionary, one zstd frame per payload of its codec's length, the
-value range, the distances' range and sign, sorted keys and runs, no stored brick in a run,
-and the header's counts against a recount of the bricks.
+Slow and obvious on purpose (voxel by voxel, the median by sorting, rANS one symbol at a
+time), and it does not import `vps`. It reads versions 1 to 7 (the tests give it the two this
+library writes, 1 and 7) and checks a file against the spec's rules: the header's fields and
+limits, the layout and its zero padding, every CRC, the dictionary section (version 7: its
+length, zstd dictionary and rANS tables), one zstd frame per payload of its codec's length
+(codec 7: found by its block headers, then the distance stream, both its states ending
+exactly where the encoder started them), the value range, the distances' range and sign,
+sorted keys and runs, no stored brick in a run, and the header's counts against a recount of
+the bricks.
 
 Decoding every brick's distances voxel by voxel takes about 20 ms a brick here, so `read`
 can be told which bricks to decode the distances of; every brick's values are decoded.
@@ -23,10 +26,13 @@ ZSTD_MAGIC = bytes([0x28, 0xB5, 0x2F, 0xFD])
 HEADER_BYTES = 192
 VOXELS = 512
 # Which codec each version's payloads use: the version's number.
-CODECS = {1: 1, 2: 2, 3: 3, 4: 4, 5: 5, 6: 6}
+CODECS = {1: 1, 2: 2, 3: 3, 4: 4, 5: 5, 6: 6, 7: 7}
 # The longest payload of each codec (`P`).
-MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560, 5: 2560, 6: 2560}
+MAX_PAYLOAD = {1: 1024, 2: 2048, 3: 2048, 4: 2560, 5: 2560, 6: 2560, 7: 2560}
 MAX_DICTIONARY_BYTES = 1 << 16
+# Codec 7's rANS: 16 tables (contexts) of frequencies summing to 2^12, two states kept in
+# [2^16, 2^32) by reading 16-bit words, and the escape symbol, followed by a raw word.
+CONTEXTS, RANS_SLOTS, RANS_LOW, ESCAPE = 16, 1 << 12, 1 << 16, 255
 
 
 class SpecError(Exception):
@@ -97,6 +103,10 @@ def read(path, distances_of=None):
     dictionary = data[HEADER_BYTES:payload_offset]
     if zlib.crc32(dictionary) != dictionary_crc:
         raise SpecError("dictionary CRC")
+    # Version 7's section: the zstd dictionary's length and bytes, then the rANS tables.
+    tables = None
+    if version == 7:
+        dictionary, tables = read_dictionary_section(dictionary)
     # zstd takes bytes without the dictionary magic as raw content, as this does. It must
     # load as a decompression dictionary, which a decompression makes it do (that of a frame
     # made without it): checked here, so that a file of no bricks is checked too.
@@ -135,7 +145,7 @@ def read(path, distances_of=None):
         if zlib.crc32(payload) != crc:
             raise SpecError(f"brick {key}: payload CRC")
         with_distances = distances_of is None or key in distances_of
-        vxm.bricks[key] = decode_payload(payload, codec, layers, zdict, with_distances)
+        vxm.bricks[key] = decode_payload(payload, codec, layers, zdict, with_distances, tables)
         next_offset, last_key = offset + length, key
     if next_offset != payload_offset + counts["payload_bytes"]:
         raise SpecError("payloads do not tile their section")
@@ -174,19 +184,84 @@ def unzigzag(z):
     return (z >> 1) ^ -(z & 1)
 
 
-def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
+def read_dictionary_section(section):
+    """Version 7's dictionary section: `u32 n`, `n` bytes of zstd dictionary, 16 rANS tables.
+    Returns the zstd dictionary's bytes and, for each context, each slot's (symbol, f, c)."""
+    at, tables = 0, []
+
+    def take(size, what):
+        nonlocal at
+        if at + size > len(section):
+            raise SpecError(f"dictionary section: {what} beyond the section's {len(section)} bytes")
+        at += size
+        return section[at - size : at]
+
+    n = struct.unpack("<I", take(4, "the zstd dictionary's length"))[0]
+    zstd_dictionary = take(n, f"a zstd dictionary of {n} bytes")
+    for t in range(CONTEXTS):
+        k = struct.unpack("<H", take(2, f"table {t}"))[0]
+        if not 1 <= k <= 256:
+            raise SpecError(f"rANS table {t}: {k} symbols")
+        entries = [struct.unpack("<BH", take(3, f"table {t}")) for _ in range(k)]
+        symbols, freqs = [s for s, _ in entries], [f for _, f in entries]
+        if symbols != sorted(set(symbols)) or min(freqs) < 1 or sum(freqs) != RANS_SLOTS:
+            raise SpecError(f"rANS table {t}: symbols not increasing, or frequencies not >= 1 summing to 4096")
+        slots, c = [], 0
+        for s, f in entries:
+            slots += [(s, f, c)] * f  # symbol s holds the slots c(s) .. c(s) + f(s) - 1
+            c += f
+        tables.append(slots)
+    if at != len(section):
+        raise SpecError(f"dictionary section: {len(section) - at} bytes after the tables")
+    return zstd_dictionary, tables
+
+
+def frame_length(payload):
+    """Where the zstd frame at the start of `payload` (magic removed) ends, by RFC 8878: the
+    frame header, then blocks up to the last, then the checksum if the frame has one."""
+    if not payload:
+        raise SpecError("an empty payload")
+    # The frame header descriptor's fields, then the window descriptor (unless the frame is
+    # a single segment), the dictionary id and the content size, of the sizes they give.
+    descriptor = payload[0]
+    fcs_flag, single_segment, checksum = descriptor >> 6, descriptor >> 5 & 1, descriptor >> 2 & 1
+    did_flag = descriptor & 3
+    fcs_bytes = [1 if single_segment else 0, 2, 4, 8][fcs_flag]
+    at = 1 + (0 if single_segment else 1) + [0, 1, 2, 4][did_flag] + fcs_bytes
+    while True:
+        if at + 3 > len(payload):
+            raise SpecError("the zstd frame ends inside a block header")
+        header = int.from_bytes(payload[at : at + 3], "little")
+        last, kind, size = header & 1, header >> 1 & 3, header >> 3
+        if kind == 3:
+            raise SpecError("a zstd block of the reserved type")
+        at += 3 + (1 if kind == 1 else size)  # an RLE block holds one byte
+        if last:
+            break
+    at += 4 if checksum else 0
+    if at > len(payload):
+        raise SpecError("the zstd frame runs past the payload")
+    return at
+
+
+def decode_payload(payload, codec, layers, zdict=None, with_distances=True, tables=None):
+    stream = b""
+    if codec == 7:
+        # The values' frame, then the distance stream to the end of the payload.
+        end = frame_length(payload)
+        payload, stream = payload[:end], payload[end:]
     frame = ZSTD_MAGIC + payload
-    params = zstandard.get_frame_parameters(frame)
-    if params.content_size == zstandard.CONTENTSIZE_UNKNOWN or params.dict_id != 0:
-        raise SpecError("a frame without its content size, or with a dictionary id")
     try:
-        # Exactly one frame: no bytes, and no second frame, after it. Codec 5's and 6's with
-        # the file's dictionary, if it has one.
+        params = zstandard.get_frame_parameters(frame)
+        if params.content_size == zstandard.CONTENTSIZE_UNKNOWN or params.dict_id != 0:
+            raise SpecError("a frame without its content size, or with a dictionary id")
+        # Exactly one frame: no bytes, and no second frame, after it (so zstd agrees with
+        # `frame_length` on codec 7's). Codec 5's to 7's with the file's dictionary, if any.
         decompressor = zstandard.ZstdDecompressor(dict_data=zdict) if codec >= 5 and zdict else zstandard.ZstdDecompressor()
         raw = decompressor.decompress(frame, allow_extra_data=False)
     except zstandard.ZstdError as e:
         raise SpecError(f"not one zstd frame: {e}") from e
-    lengths = {1: VOXELS, 2: 3 * VOXELS}
+    lengths = {1: VOXELS, 2: 3 * VOXELS, 7: VOXELS}
     if len(raw) != lengths.get(codec, len(raw)) or not VOXELS <= len(raw) <= 2048:
         raise SpecError(f"codec {codec}: a frame of {len(raw)} bytes")
     values = [0] * VOXELS
@@ -222,6 +297,8 @@ def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
             p = previous_along(i)
             d[i] = wrap((0 if p is None else d[p]) + unzigzag(z), 16)
             k += 1
+    elif codec == 7:
+        d = decode_diagonal(stream, values, stored, tables)
     else:
         d = decode_median(raw[VOXELS:], values, stored, codec)
     for i in range(VOXELS):
@@ -232,15 +309,15 @@ def decode_payload(payload, codec, layers, zdict=None, with_distances=True):
     return values, d
 
 
-def median_prediction(i, d, stored, values, codec):
-    """Codec 4's (and 5's) prediction of voxel `i` from the distances `d` decoded before it,
-    or codec 6's, from candidates C, E, F and I only."""
+def candidates(i, d, available):
+    """Codec 4's nine candidates A to I of voxel `i` (None where one is not available), and its
+    neighbours a, b, c: from the distances `d` of the voxels `available` marks."""
     x, y, z = coords(i)
 
     def n(dx, dy, dz):
         a, b, c = x + dx, y + dy, z + dz
         j = a + 8 * b + 64 * c
-        return d[j] if 0 <= a < 8 and 0 <= b < 8 and 0 <= c < 8 and stored[j] else None
+        return d[j] if 0 <= a < 8 and 0 <= b < 8 and 0 <= c < 8 and available[j] else None
 
     a, b, c = n(-1, 0, 0), n(0, -1, 0), n(0, 0, -1)
     a2, b2, c2 = n(-2, 0, 0), n(0, -2, 0), n(0, 0, -2)
@@ -250,7 +327,7 @@ def median_prediction(i, d, stored, values, codec):
     def known(*vs):
         return all(v is not None for v in vs)
 
-    candidates = [
+    return [
         a + b - ab if known(a, b, ab) else None,  # A
         a + c - ac if known(a, c, ac) else None,  # B
         b + c - bc if known(b, c, bc) else None,  # C
@@ -260,14 +337,19 @@ def median_prediction(i, d, stored, values, codec):
         xb + a - b if known(xb, a, b) else None,  # G
         xc + a - c if known(xc, a, c) else None,  # H
         yc + b - c if known(yc, b, c) else None,  # I
-    ]
-    if codec == 6:
-        candidates = [candidates[k] for k in (2, 4, 5, 8)]  # C, E, F, I
-    available = sorted(v for v in candidates if v is not None)
+    ], (a, b, c)
+
+
+def median_prediction(i, d, stored, values, codec):
+    """Codec 4's (and 5's) prediction of voxel `i` from the distances `d` decoded before it
+    (in index order every neighbour comes before), or codec 6's, from C, E, F and I only."""
+    cands, (a, b, c) = candidates(i, d, stored)
+    used = [cands[k] for k in (2, 4, 5, 8)] if codec == 6 else cands  # C, E, F, I
+    available = sorted(v for v in used if v is not None)
     if available:
         return available[(len(available) - 1) // 2]
-    if codec == 6 and known(a, a2):
-        return 2 * a - a2  # D
+    if codec == 6 and cands[3] is not None:
+        return cands[3]  # D = 2a - a2
     first = next((v for v in (a, b, c) if v is not None), None)
     return first if first is not None else 32 * values[i]
 
@@ -292,4 +374,87 @@ def decode_median(stream, values, stored, codec):
         d[i] = v
     if at != len(stream):
         raise SpecError("residuals left over")
+    return d
+
+
+def diagonal_prediction(i, d, known, values):
+    """Codec 7's prediction of voxel `i`: the median of candidates A to F."""
+    cands, (a, b, c) = candidates(i, d, known)
+    available = sorted(v for v in cands[:6] if v is not None)
+    if not available:
+        first = next((v for v in (a, b, c) if v is not None), None)
+        return first if first is not None else 32 * values[i]
+    return available[(len(available) - 1) // 2]
+
+
+def residual_class(z):
+    """Codec 7's class of the zigzagged residual z: 1 + m for a magnitude m below 4, else
+    3 + floor(log2 m), at most 15."""
+    m = (z + 1) >> 1
+    return 1 + m if m < 4 else min(15, 3 + m.bit_length() - 1)
+
+
+def diagonal_context(i, classes):
+    """Codec 7's context of voxel `i`: the largest class among the residuals of its neighbours
+    a, b, c, a⁺c and b⁺c that have one (`classes`, None where not), else 0."""
+    x, y, z = coords(i)
+    found = [0]
+    for dx, dy, dz in ((-1, 0, 0), (0, -1, 0), (0, 0, -1), (1, 0, -1), (0, 1, -1)):
+        a, b, c = x + dx, y + dy, z + dz
+        if 0 <= a < 8 and 0 <= b < 8 and 0 <= c < 8 and classes[a + 8 * b + 64 * c] is not None:
+            found.append(classes[a + 8 * b + 64 * c])
+    return max(found)
+
+
+def diagonal_order():
+    """Codec 7's order: by x + y + 8z, then by x."""
+    return sorted(range(512), key=lambda i: ((i & 7) + (i >> 3 & 7) + 8 * (i >> 6), i & 7))
+
+
+def decode_diagonal(stream, values, stored, tables):
+    """Codec 7's distances: a residual for each stored voxel in the diagonal order, residual j
+    from rANS state x₀ for even j and x₁ for odd j, with its context's table; the two share
+    the words, read in order (a renormalising word before an escape's)."""
+    d = [32 * v + 16 for v in values]  # the bounds, for the voxels not stored
+    if not any(stored):
+        if stream:
+            raise SpecError(f"a distance stream of {len(stream)} bytes for no stored distance")
+        return d
+    if len(stream) < 8 or len(stream) % 2:
+        raise SpecError(f"a distance stream of {len(stream)} bytes")
+    states = list(struct.unpack_from("<2I", stream))
+    words = list(struct.unpack(f"<{(len(stream) - 8) // 2}H", stream[8:]))
+    if min(states) < RANS_LOW:
+        raise SpecError(f"initial rANS states {states}")
+    at = 0
+    # Available: stored and already decoded, so before in the order (every neighbour a
+    # candidate names is; G's a⁺b would not be).
+    known = [False] * VOXELS
+    classes = [None] * VOXELS
+
+    def word():
+        nonlocal at
+        if at == len(words):
+            raise SpecError("the distance stream ends early")
+        at += 1
+        return words[at - 1]
+
+    j = 0
+    for i in diagonal_order():
+        if not stored[i]:
+            continue
+        p = diagonal_prediction(i, d, known, values)
+        context = diagonal_context(i, classes)
+        x = states[j % 2]
+        slot = x % RANS_SLOTS
+        s, f, c = tables[context][slot]
+        x = f * (x >> 12) + slot - c
+        if x < RANS_LOW:
+            x = x << 16 | word()
+        states[j % 2], j = x, j + 1
+        z = word() if s == ESCAPE else s
+        d[i], known[i], classes[i] = wrap(p + unzigzag(z), 16), True, residual_class(z)
+    if at != len(words) or states != [RANS_LOW, RANS_LOW]:
+        left = len(words) - at
+        raise SpecError(f"the distance stream ends with {left} words left and states {states}, not 65536")
     return d

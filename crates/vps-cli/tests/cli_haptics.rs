@@ -511,11 +511,11 @@ fn bench_slides_on_a_tilted_box() {
     assert_clean_failure(&o, "--tilts is for --tilted-box");
 }
 
-/// `vps voxelize --distance` writes a version 6 file, whose queries use the interpolated
+/// `vps voxelize --distance` writes a version 7 file, whose queries use the interpolated
 /// distance unless `--penetration layers` asks for the old formula; out of core
 /// (`--memory-limit`) it writes the same file.
 #[test]
-fn voxelize_with_distances_writes_version_6_and_contact_uses_it() {
+fn voxelize_with_distances_writes_version_7_and_contact_uses_it() {
     let f = fixture();
     let obj = f.dir.path().join("ball.obj");
     let ball = Mesh::from_triangles("ball", shapes::sphere(DVec3::ZERO, 10.0, 24, 48)).unwrap();
@@ -536,7 +536,7 @@ fn voxelize_with_distances_writes_version_6_and_contact_uses_it() {
     ]));
     assert!(v["distances_seconds"].as_f64().unwrap() > 0.0, "{v}");
     let info = json(&vps(&["info", out_s, "--json"]));
-    assert_eq!(info["format_version"], 6, "{info}");
+    assert_eq!(info["format_version"], 7, "{info}");
     let query = |vxm: &str, penetration: &str| {
         let c = json(&vps(&[
             "contact",

@@ -108,7 +108,7 @@ fn lookup(c: &mut Criterion) {
         })
     });
 
-    // A ball voxelized with distances: a version 6 file, whose bricks a contact query decodes.
+    // A ball voxelized with distances: a version 7 file, whose bricks a contact query decodes.
     let ball = vps::Mesh::from_triangles("ball", vps::shapes::sphere(DVec3::ZERO, 60.0, 96, 192)).unwrap();
     let params = vps::VoxelizeParams {
         distances: true,

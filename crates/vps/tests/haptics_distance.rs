@@ -60,7 +60,7 @@ fn a_ball_pressed_and_slid_on_a_slab_feels_a_smooth_force() {
     }
 }
 
-/// A voxmap with distances written as a version 6 file and mapped gives the same forces, bit
+/// A voxmap with distances written as a version 7 file and mapped gives the same forces, bit
 /// for bit, as in memory; the same voxmap without distances (version 1) falls back to layers.
 #[test]
 fn a_version_6_file_queries_as_the_voxmap_in_memory() {

@@ -151,7 +151,7 @@ pub(crate) fn mesh(name: &str, tris: Vec<Triangle>) -> Mesh {
     Mesh::from_triangles(name, tris).unwrap()
 }
 
-/// The voxmap of `mesh`, with signed distances (a version 6 file): the C process and this one
+/// The voxmap of `mesh`, with signed distances (a version 7 file): the C process and this one
 /// both query it with the default, interpolated penetration.
 pub(crate) fn voxmap_of(mesh: &Mesh) -> Voxmap {
     let params = VoxelizeParams {

@@ -66,7 +66,7 @@ pub struct VoxelizeArgs {
     #[arg(long, requires = "memory_limit")]
     tmp_dir: Option<PathBuf>,
     /// Also store the signed distance to the mesh of every stored voxel a contact can read
-    /// (value -1 and above; a version 6 file), for the haptic query's interpolated
+    /// (value -1 and above; a version 7 file), for the haptic query's interpolated
     /// penetration; in memory or out of core alike.
     #[arg(long)]
     distance: bool,

@@ -70,7 +70,7 @@ pub struct VoxelizeParams {
     pub fill: Fill,
     /// Also compute every stored voxel's signed distance to the mesh
     /// ([`signed_distance::signed_distances`]), for the haptic query's interpolated
-    /// penetration; a voxmap with distances is written as `.vxm` version 6. In memory and
+    /// penetration; a voxmap with distances is written as `.vxm` version 7. In memory and
     /// out of core ([`crate::out_of_core`]) alike.
     pub distances: bool,
 }

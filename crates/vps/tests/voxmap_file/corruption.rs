@@ -8,16 +8,16 @@ fn flipping_any_byte_is_caught() {
     flipping_any_byte_of(&ball(1, 5.0));
 }
 
-/// With distances (version 6): the distances are covered as the values are.
+/// With distances (version 7): the distances are covered as the values are.
 #[test]
 fn flipping_any_byte_of_a_file_with_distances_is_caught() {
     flipping_any_byte_of(&ball_with_distances(1, 5.0));
 }
 
-/// Versions 5 and 6 with a dictionary: the dictionary's bytes too.
+/// Versions 5 to 7 with a dictionary: the dictionary's bytes too (and version 7's tables).
 #[test]
 fn flipping_any_byte_of_a_file_with_a_dictionary_is_caught() {
-    for version in [5, VERSION] {
+    for version in [5, VERSION_ROWS, VERSION] {
         flipping_any_byte_of_file(&super::semantics::with_a_small_dictionary_in(version).1);
     }
 }
@@ -47,8 +47,9 @@ fn flipping_any_byte_of_file(good: &[u8]) {
     }
 }
 
-/// A version 6 file's dictionary: a flipped byte fails its checksum at open, one that zstd
-/// cannot load is named, and the dictionary's fields are refused where they do not belong.
+/// A version 7 file's dictionary section: a flipped byte fails its checksum at open, a zstd
+/// dictionary zstd cannot load is named, and so are tables that break a rule, and the
+/// dictionary's fields are refused where they do not belong.
 #[test]
 fn a_damaged_dictionary_is_named() {
     let dir = tmp();
@@ -57,8 +58,21 @@ fn a_damaged_dictionary_is_named() {
     assert!(h.dictionary_bytes > 1000, "{}", h.dictionary_bytes);
     assert_eq!(h.payload_offset, HEADER_BYTES as u64 + h.dictionary_bytes);
     let dictionary = HEADER_BYTES..HEADER_BYTES + h.dictionary_bytes as usize;
-    assert_eq!(good[dictionary.start..dictionary.start + 4], [0x37, 0xA4, 0x30, 0xEC]);
+    // The zstd dictionary's length, then the dictionary.
+    let zstd_bytes = u32::from_le_bytes(good[dictionary.start..][..4].try_into().unwrap()) as usize;
+    assert!(zstd_bytes > 1000 && zstd_bytes + 4 < dictionary.len(), "{zstd_bytes}");
+    assert_eq!(good[dictionary.start + 4..][..4], [0x37, 0xA4, 0x30, 0xEC]);
     let opened = |bytes: &[u8]| VoxmapFile::from_bytes(bytes).map(|f| f.verify());
+    // The section's bytes replaced by `edit`ed ones, under a checksum that matches them.
+    let resealed = |edit: &dyn Fn(&mut [u8])| -> Vec<u8> {
+        let mut bad = good.clone();
+        edit(&mut bad[dictionary.clone()]);
+        let mut h2 = h;
+        h2.dictionary_crc = crc32fast::hash(&bad[dictionary.clone()]);
+        h2.header_crc = h2.compute_crc();
+        bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h2));
+        bad
+    };
 
     let mut bad = good.clone();
     bad[dictionary.start + 100] ^= 0x10;
@@ -68,18 +82,31 @@ fn a_damaged_dictionary_is_named() {
         "{e}"
     );
 
-    // Entropy tables zstd cannot read, under a checksum that matches them.
-    let mut bad = good.clone();
-    bad[dictionary.start + 8..dictionary.start + 40].fill(0xFF);
-    let mut h2 = h;
-    h2.dictionary_crc = crc32fast::hash(&bad[dictionary.clone()]);
-    h2.header_crc = h2.compute_crc();
-    bad[..HEADER_BYTES].copy_from_slice(bytemuck::bytes_of(&h2));
-    let e = opened(&bad).unwrap_err();
+    // Entropy tables zstd cannot read.
+    let e = opened(&resealed(&|d| d[12..44].fill(0xFF))).unwrap_err();
     assert!(
         matches!(&e, StorageError::Corrupt { what, .. } if what.contains("does not load")),
         "{e}"
     );
+    // A zstd dictionary's length beyond the section; rANS tables whose first frequency is
+    // one more (so they sum past 4,096), or cut short.
+    for (edit, says) in [
+        (
+            &(|d: &mut [u8]| d[..4].copy_from_slice(&u32::MAX.to_le_bytes())) as &dyn Fn(&mut [u8]),
+            "beyond",
+        ),
+        (&|d: &mut [u8]| d[4 + zstd_bytes + 3] ^= 1, "context 0"),
+        (
+            &|d: &mut [u8]| d[4 + zstd_bytes..4 + zstd_bytes + 2].copy_from_slice(&300u16.to_le_bytes()),
+            "context 0",
+        ),
+    ] {
+        let e = opened(&resealed(edit)).unwrap_err();
+        assert!(
+            matches!(&e, StorageError::Corrupt { what, .. } if what.contains(says)),
+            "{says}: {e}"
+        );
+    }
 
     // Beyond the limit, or in a version 4 header, or only its checksum there.
     for edit in [

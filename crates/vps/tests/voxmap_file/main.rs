@@ -15,7 +15,9 @@ use common::fuzz_seed_dir;
 use glam::DVec3;
 use proptest::prelude::*;
 use vps::grid::BRICK_VOXELS;
-use vps::storage::format::{RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET};
+use vps::storage::format::{
+    RawHeader, HEADER_BYTES, INDEX_ENTRY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_OFFSET, VERSION_ROWS,
+};
 use vps::storage::{BrickData, StorageError, VoxmapWriter};
 use vps::voxmap::{outside_value, Brick, BrickValues, KeyRange};
 use vps::{write_voxmap, Grid, Voxmap, VoxmapFile};
@@ -27,7 +29,7 @@ pub(crate) fn ball(layers: u8, radius: f64) -> Voxmap {
     Voxmap::from_signed_distance(grid, layers, |p| p.length() - radius)
 }
 
-/// [`ball`] carrying the exact signed distances of its stored voxels (a version 6 file), those
+/// [`ball`] carrying the exact signed distances of its stored voxels (a version 7 file), those
 /// that no contact reads replaced by their bounds ([`Voxmap::with_distances`]).
 pub(crate) fn ball_with_distances(layers: u8, radius: f64) -> Voxmap {
     let vm = ball(layers, radius);

@@ -10,12 +10,14 @@ use crate::voxmap::{
 
 use super::dictionary::Dictionary;
 use super::format::{
-    CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DICTIONARY,
+    CODEC_DIAGONAL_RANS, CODEC_ZSTD_DELTA_DISTANCE, CODEC_ZSTD_DELTA_READ_DISTANCE, CODEC_ZSTD_MEDIAN_DICTIONARY,
     CODEC_ZSTD_MEDIAN_DISTANCE, CODEC_ZSTD_MEDIAN_ROWS, MAX_PAYLOAD_BYTES, MAX_PAYLOAD_BYTES_DISTANCE,
     MAX_PAYLOAD_BYTES_MEDIAN,
 };
 use super::median;
 pub use super::median::Predictor;
+use super::rans::Tables;
+use super::{diagonal, rans};
 use rayon::prelude::*;
 
 /// zstd level used by the writer. Writing is on the critical path of generation: on the
@@ -215,6 +217,39 @@ pub fn compress_frame(compressor: &mut zstd::bulk::Compressor<'_>, frame: &[u8])
     payload_of(compressor, frame, MAX_PAYLOAD_BYTES_MEDIAN)
 }
 
+/// Compress one brick with its distances into a codec-7 payload: the value residuals of codec
+/// 1 in a zstd frame (with the file's dictionary, if `compressor` has it), then the stream of
+/// the distances a contact reads ([`distance_is_read`]) coded with `tables` (`diagonal.rs`).
+/// The others are not stored and decode to their [`outer_distance`].
+pub fn encode_brick_diagonal(
+    compressor: &mut zstd::bulk::Compressor<'_>,
+    values: &BrickValues,
+    distances: &BrickDistances,
+    tables: &Tables,
+) -> std::io::Result<Vec<u8>> {
+    let mut payload = payload_of(compressor, &predict(values), MAX_PAYLOAD_BYTES)?;
+    diagonal::encode(values, distances, tables, &mut payload);
+    if payload.len() > MAX_PAYLOAD_BYTES_MEDIAN {
+        return Err(std::io::Error::other(format!(
+            "a codec 7 payload of {} bytes, over the limit of {MAX_PAYLOAD_BYTES_MEDIAN}",
+            payload.len()
+        )));
+    }
+    Ok(payload)
+}
+
+/// The value residuals of codec 1 for a brick of `values`: the frame the writer trains a
+/// version 7 file's zstd dictionary on.
+pub fn values_frame(values: &BrickValues) -> [u8; BRICK_VOXELS] {
+    predict(values)
+}
+
+/// Add the distance symbols of a brick to `counts`, which the writer fits a version 7 file's
+/// rANS tables to.
+pub fn count_distance_symbols(values: &BrickValues, distances: &BrickDistances, counts: &mut rans::Counts) {
+    diagonal::count(values, distances, counts);
+}
+
 /// [`compress_frame`] for each of `frames` in parallel, one compressor a thread, with the
 /// file's `dictionary` if it has one: the payloads in the frames' order.
 pub(super) fn compress_frames<F: AsRef<[u8]> + Sync>(
@@ -297,7 +332,7 @@ pub enum DecodeError {
 
 /// Decompress `payload` (a frame without its magic) into `out`, which it must fill exactly.
 fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeError> {
-    let n = decompress_into(payload, out, max, None)?;
+    let (n, _) = decompress_into(payload, out, max, None, true)?;
     if n != out.len() {
         return Err(DecodeError::Malformed(format!(
             "decompressed to {n} bytes instead of {}",
@@ -307,14 +342,16 @@ fn decompress(payload: &[u8], out: &mut [u8], max: usize) -> Result<(), DecodeEr
     Ok(())
 }
 
-/// Decompress `payload` (a frame without its magic) into the start of `out`, with
-/// `dictionary` if given: its length.
+/// Decompress `payload`, a frame without its magic (the whole payload if `whole`, else its
+/// start), into the start of `out`, with `dictionary`'s zstd dictionary if given: the bytes
+/// decompressed and the frame's length in the payload.
 fn decompress_into(
     payload: &[u8],
     out: &mut [u8],
     max: usize,
     dictionary: Option<&Dictionary>,
-) -> Result<usize, DecodeError> {
+    whole: bool,
+) -> Result<(usize, usize), DecodeError> {
     if payload.len() > max {
         return Err(DecodeError::Malformed(format!(
             "payload of {} bytes exceeds the limit of {max}",
@@ -322,7 +359,7 @@ fn decompress_into(
         )));
     }
     let n = DECODER
-        .with(|cell| -> Result<usize, String> {
+        .with(|cell| -> Result<(usize, usize), String> {
             let mut slot = cell.try_borrow_mut().map_err(|e| e.to_string())?;
             let state = match &mut *slot {
                 Some(state) => state,
@@ -334,24 +371,32 @@ fn decompress_into(
             state.frame.clear();
             state.frame.extend_from_slice(&ZSTD_FRAME_MAGIC);
             state.frame.extend_from_slice(payload);
-            // One frame that is the whole payload and records its content size
-            // (`docs/FORMAT.md`): zstd alone would also take frames back to back, or
-            // skippable ones.
-            let whole = zstd::zstd_safe::find_frame_compressed_size(&state.frame).ok() == Some(state.frame.len());
-            if !whole || !matches!(zstd::zstd_safe::get_frame_content_size(&state.frame), Ok(Some(_))) {
+            // One frame that is the whole payload (or, for codec 7, starts it) and records its
+            // content size (`docs/FORMAT.md`): zstd alone would also take frames back to back,
+            // or skippable ones.
+            let len = zstd::zstd_safe::find_frame_compressed_size(&state.frame).ok();
+            let fits = len.is_some_and(|n| {
+                if whole {
+                    n == state.frame.len()
+                } else {
+                    n <= state.frame.len()
+                }
+            });
+            if !fits || !matches!(zstd::zstd_safe::get_frame_content_size(&state.frame), Ok(Some(_))) {
                 return Err("not one zstd frame with its content size".into());
             }
+            let len = len.unwrap_or(0);
             // A file has one dictionary or none, so a frame names none.
             if zstd::zstd_safe::get_dict_id_from_frame(&state.frame).is_some() {
                 return Err("a zstd frame that names a dictionary".into());
             }
-            match dictionary {
-                Some(d) => state
-                    .zstd
-                    .decompress_using_ddict(&mut *out, &state.frame[..], d.ddict()),
-                None => state.zstd.decompress(&mut *out, &state.frame[..]),
+            let frame = &state.frame[..len];
+            let n = match dictionary.and_then(Dictionary::ddict) {
+                Some(d) => state.zstd.decompress_using_ddict(&mut *out, frame, d),
+                None => state.zstd.decompress(&mut *out, frame),
             }
-            .map_err(|code| format!("zstd: {}", zstd::zstd_safe::get_error_name(code)))
+            .map_err(|code| format!("zstd: {}", zstd::zstd_safe::get_error_name(code)))?;
+            Ok((n, len - ZSTD_FRAME_MAGIC.len()))
         })
         .map_err(DecodeError::Malformed)?;
     Ok(n)
@@ -413,7 +458,7 @@ fn values_of_frame(
     layers: u8,
     dictionary: Option<&Dictionary>,
 ) -> Result<(BrickValues, usize), DecodeError> {
-    let n = decompress_into(payload, raw, max, dictionary)?;
+    let (n, _) = decompress_into(payload, raw, max, dictionary, true)?;
     if n < BRICK_VOXELS {
         return Err(DecodeError::Malformed(format!(
             "decompressed to {n} bytes, fewer than the {BRICK_VOXELS} values"
@@ -492,6 +537,30 @@ fn decode_median_into(
     check_distances(&out.values, d, layers)
 }
 
+/// A payload of codec 7 decoded into `out`, whose distances it sets: the values frame with the
+/// file's zstd dictionary, if it has one, then the distances with its rANS tables.
+fn decode_diagonal_into(
+    payload: &[u8],
+    layers: u8,
+    dictionary: Option<&Dictionary>,
+    out: &mut StoredBrick,
+) -> Result<(), DecodeError> {
+    let tables = dictionary
+        .and_then(Dictionary::tables)
+        .ok_or_else(|| DecodeError::Malformed("a codec 7 payload without the file's rANS tables".into()))?;
+    let mut raw = [0u8; BRICK_VOXELS];
+    let (n, frame) = decompress_into(payload, &mut raw, MAX_PAYLOAD_BYTES_MEDIAN, dictionary, false)?;
+    if n != BRICK_VOXELS {
+        return Err(DecodeError::Malformed(format!(
+            "the values decompressed to {n} bytes instead of {BRICK_VOXELS}"
+        )));
+    }
+    out.values = checked_values(&raw, layers)?;
+    let d = out.distances.get_or_insert([0; BRICK_VOXELS]);
+    diagonal::decode_into(&out.values, &payload[frame..], tables, d).map_err(DecodeError::Malformed)?;
+    check_distances(&out.values, d, layers)
+}
+
 /// The fault [`distance_fault`] finds in `d`, the distances of a brick of `values`, as an
 /// error.
 fn check_distances(values: &BrickValues, d: &BrickDistances, layers: u8) -> Result<(), DecodeError> {
@@ -518,8 +587,9 @@ pub(super) fn distance_fault(values: &BrickValues, d: &BrickDistances, layers: u
     Some(format!("voxel {voxel} has distance {} steps, {why}", d[voxel]))
 }
 
-/// Decode a payload of `codec`: the values, and the distances for codecs 2 to 6; codecs 5 and 6
-/// with the file's `dictionary`, if it has one (the others take none).
+/// Decode a payload of `codec`: the values, and the distances for codecs 2 to 7; codecs 5 to 7
+/// with the file's `dictionary`, if it has one (the others take none; codec 7 needs its
+/// tables).
 pub fn decode_payload(
     payload: &[u8],
     layers: u8,
@@ -531,7 +601,7 @@ pub fn decode_payload(
     Ok((brick.values, brick.distances))
 }
 
-/// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 to 6
+/// [`decode_payload`] into `out`, where the brick will stay (a cache's brick): codecs 4 to 7
 /// decode in place, the older ones are moved in. On an error `out` holds no brick to use.
 pub fn decode_payload_into(
     payload: &[u8],
@@ -541,6 +611,7 @@ pub fn decode_payload_into(
     out: &mut StoredBrick,
 ) -> Result<(), DecodeError> {
     match codec {
+        CODEC_DIAGONAL_RANS => return decode_diagonal_into(payload, layers, dictionary, out),
         CODEC_ZSTD_MEDIAN_ROWS => return decode_median_into(payload, layers, dictionary, Predictor::Rows, out),
         CODEC_ZSTD_MEDIAN_DICTIONARY => return decode_median_into(payload, layers, dictionary, Predictor::Nine, out),
         CODEC_ZSTD_MEDIAN_DISTANCE => return decode_median_into(payload, layers, None, Predictor::Nine, out),

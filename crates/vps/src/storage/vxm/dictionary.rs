@@ -1,4 +1,5 @@
-//! The zstd dictionary of a version 5 or 6 file (`docs/FORMAT.md`, "Brick payload (codec 5)").
+//! The dictionary section of a version 5 to 7 file: the zstd dictionary (`docs/FORMAT.md`,
+//! "Brick payload (codec 5)"), and in version 7 the rANS tables of the distances (codec 7).
 //!
 //! A brick's frame is small, 512 values and a few hundred residuals, so zstd spends about half
 //! of its time decoding one on the entropy tables that the frame carries, and much of its
@@ -8,6 +9,7 @@
 //! (`docs/PERFORMANCE.md`, "Version 5: a zstd dictionary").
 
 use super::codec::{compress_frames, ZSTD_LEVEL};
+use super::rans::Tables;
 
 /// The size the writer asks zstd's trainer for.
 pub const DICTIONARY_BYTES: usize = 16 << 10;
@@ -16,20 +18,62 @@ pub const DICTIONARY_BYTES: usize = 16 << 10;
 /// keeps their frames in memory until then, under 4 MB.
 pub const TRAINING_BRICKS: usize = 4096;
 
-/// A dictionary ready to decompress with: its entropy tables built once, when the file opens.
-pub struct Dictionary(zstd::zstd_safe::DDict<'static>);
+/// A dictionary section ready to decode with, built once, when the file opens: zstd's
+/// prepared dictionary (its entropy tables built), and the rANS tables of version 7.
+pub struct Dictionary {
+    zstd: Option<zstd::zstd_safe::DDict<'static>>,
+    tables: Option<Tables>,
+}
 
 impl Dictionary {
-    /// The dictionary of `bytes`, or `None` if zstd refuses them (a dictionary header it
-    /// cannot read). Bytes without the dictionary magic are taken as raw content, as zstd
-    /// takes them.
+    /// The zstd dictionary of `bytes` (versions 5 and 6), or `None` if zstd refuses them (a
+    /// dictionary header it cannot read). Bytes without the dictionary magic are taken as raw
+    /// content, as zstd takes them.
     pub fn load(bytes: &[u8]) -> Option<Dictionary> {
-        zstd::zstd_safe::DDict::try_create(bytes).map(Dictionary)
+        zstd::zstd_safe::DDict::try_create(bytes).map(|d| Dictionary {
+            zstd: Some(d),
+            tables: None,
+        })
     }
 
-    /// zstd's prepared dictionary.
-    pub(super) fn ddict(&self) -> &zstd::zstd_safe::DDict<'static> {
-        &self.0
+    /// The dictionary section of a version 7 file: a `u32` length, that many bytes of zstd
+    /// dictionary (none for 0), then the rANS tables. The error says what is wrong.
+    pub fn load_with_tables(bytes: &[u8]) -> Result<Dictionary, String> {
+        let head: [u8; 4] = bytes
+            .get(..4)
+            .and_then(|b| b.try_into().ok())
+            .ok_or("the dictionary section is shorter than its length field")?;
+        let zstd_bytes = u32::from_le_bytes(head) as usize;
+        let zstd = bytes
+            .get(4..4 + zstd_bytes)
+            .ok_or_else(|| format!("a zstd dictionary of {zstd_bytes} bytes, beyond its section"))?;
+        let zstd = match zstd {
+            [] => None,
+            d => Some(zstd::zstd_safe::DDict::try_create(d).ok_or("zstd does not load the dictionary")?),
+        };
+        let tables = Tables::parse(&bytes[4 + zstd_bytes..]).map_err(|e| format!("the rANS tables: {e}"))?;
+        Ok(Dictionary {
+            zstd,
+            tables: Some(tables),
+        })
+    }
+
+    /// The section of a version 7 file: the zstd dictionary's length, its bytes, the tables.
+    pub fn section(zstd: &[u8], tables: &Tables) -> Vec<u8> {
+        let mut out = (zstd.len() as u32).to_le_bytes().to_vec();
+        out.extend_from_slice(zstd);
+        out.extend(tables.to_bytes());
+        out
+    }
+
+    /// zstd's prepared dictionary, if the file has one.
+    pub(super) fn ddict(&self) -> Option<&zstd::zstd_safe::DDict<'static>> {
+        self.zstd.as_ref()
+    }
+
+    /// The rANS tables of a version 7 file.
+    pub(super) fn tables(&self) -> Option<&Tables> {
+        self.tables.as_ref()
     }
 }
 

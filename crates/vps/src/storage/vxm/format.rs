@@ -13,10 +13,14 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"VXM\x00\r\n\x1a\n";
 
 /// The newest format version, which this crate writes for a voxmap with signed distances:
-/// every payload holds the brick's values and the distances a contact can read, predicted by
-/// a median of the rows before, compressed with a zstd dictionary stored in the file
-/// (codec 6).
-pub const VERSION: u32 = 6;
+/// every payload holds the brick's values, compressed with a zstd dictionary stored in the
+/// file, and the distances a contact can read, predicted by anti-diagonals and coded with
+/// rANS tables stored beside the dictionary (codec 7).
+pub const VERSION: u32 = 7;
+
+/// The version of the files whose distances are predicted by a median of the rows before,
+/// in frames compressed with a zstd dictionary (codec 6), which this crate still reads.
+pub const VERSION_ROWS: u32 = 6;
 
 /// The version of the files whose distances are predicted by the median of nine, with a
 /// zstd dictionary (codec 5), which this crate still reads.
@@ -78,6 +82,12 @@ pub const CODEC_ZSTD_MEDIAN_DICTIONARY: u8 = 5;
 /// [`median_frame`](super::codec::median_frame)).
 pub const CODEC_ZSTD_MEDIAN_ROWS: u8 = 6;
 
+/// Codec id of version 7: the values' residuals of [`CODEC_ZSTD_DELTA`] in a zstd frame
+/// compressed with the file's dictionary, if it has one, followed by the distances a contact
+/// reads, predicted by anti-diagonals and coded by the file's rANS tables (see
+/// [`encode_brick_diagonal`](super::codec::encode_brick_diagonal)).
+pub const CODEC_DIAGONAL_RANS: u8 = 7;
+
 /// The largest zstd dictionary a file may hold; the writer makes one of at most
 /// [`super::dictionary::DICTIONARY_BYTES`].
 pub const MAX_DICTIONARY_BYTES: u64 = 1 << 16;
@@ -85,7 +95,8 @@ pub const MAX_DICTIONARY_BYTES: u64 = 1 << 16;
 /// The codec of each version: version 1 (and any other, which opening refuses) codec 1.
 pub fn codec_of(version: u32) -> u8 {
     match version {
-        VERSION => CODEC_ZSTD_MEDIAN_ROWS,
+        VERSION => CODEC_DIAGONAL_RANS,
+        VERSION_ROWS => CODEC_ZSTD_MEDIAN_ROWS,
         VERSION_DICTIONARY => CODEC_ZSTD_MEDIAN_DICTIONARY,
         VERSION_MEDIAN => CODEC_ZSTD_MEDIAN_DISTANCE,
         VERSION_READ_DISTANCES => CODEC_ZSTD_DELTA_READ_DISTANCE,
@@ -98,13 +109,14 @@ pub fn codec_of(version: u32) -> u8 {
 pub fn has_distances(version: u32) -> bool {
     matches!(
         version,
-        VERSION | VERSION_DICTIONARY | VERSION_MEDIAN | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES
+        VERSION | VERSION_ROWS | VERSION_DICTIONARY | VERSION_MEDIAN | VERSION_READ_DISTANCES | VERSION_ALL_DISTANCES
     )
 }
 
-/// Whether files of `version` may hold a zstd dictionary.
+/// Whether files of `version` hold a dictionary section after the header: a zstd dictionary
+/// (versions 5 and 6), or a zstd dictionary and the rANS tables (version 7).
 pub fn has_dictionary(version: u32) -> bool {
-    matches!(version, VERSION | VERSION_DICTIONARY)
+    matches!(version, VERSION | VERSION_ROWS | VERSION_DICTIONARY)
 }
 
 /// Largest payload a valid file can hold. zstd's worst case for 512 bytes is 577, so
@@ -115,15 +127,19 @@ pub const MAX_PAYLOAD_BYTES: usize = 1024;
 /// case is under 1,600).
 pub const MAX_PAYLOAD_BYTES_DISTANCE: usize = 2048;
 
-/// Largest payload of codecs 4 to 6, whose frames hold at most 2,048 bytes (512 values and
-/// 512 escaped residuals of three bytes; zstd's worst case is under 2,100).
+/// Largest payload of codecs 4 to 7. The frames of codecs 4 to 6 hold at most 2,048 bytes (512
+/// values and 512 escaped residuals of three bytes; zstd's worst case is under 2,100); codec
+/// 7's values frame at most 577 bytes and its distances at most 1,798 (4 bytes of state, and
+/// for each residual at most 12 bits of symbol and a 16-bit raw word).
 pub const MAX_PAYLOAD_BYTES_MEDIAN: usize = 2560;
 
 /// The payload limit of `codec`.
 pub fn max_payload_bytes(codec: u8) -> usize {
     match codec {
         CODEC_ZSTD_DELTA => MAX_PAYLOAD_BYTES,
-        CODEC_ZSTD_MEDIAN_DISTANCE | CODEC_ZSTD_MEDIAN_DICTIONARY | CODEC_ZSTD_MEDIAN_ROWS => MAX_PAYLOAD_BYTES_MEDIAN,
+        CODEC_ZSTD_MEDIAN_DISTANCE | CODEC_ZSTD_MEDIAN_DICTIONARY | CODEC_ZSTD_MEDIAN_ROWS | CODEC_DIAGONAL_RANS => {
+            MAX_PAYLOAD_BYTES_MEDIAN
+        }
         _ => MAX_PAYLOAD_BYTES_DISTANCE,
     }
 }
@@ -165,7 +181,7 @@ pub struct RawHeader {
     pub inside_tile_bricks: u64,
     /// Number of inside-run entries.
     pub inside_runs: u64,
-    /// Offset of the first payload: [`HEADER_BYTES`], plus the dictionary's bytes in versions 5 and 6.
+    /// Offset of the first payload: [`HEADER_BYTES`], plus the dictionary's bytes in versions 5 to 7.
     pub payload_offset: u64,
     /// Total bytes of all payloads, back to back.
     pub payload_bytes: u64,
@@ -179,12 +195,12 @@ pub struct RawHeader {
     pub index_crc: u32,
     /// CRC-32 of the inside-run table bytes.
     pub runs_crc: u32,
-    /// Bytes of the zstd dictionary right after the header, in versions 5 and 6 (0 for none); zero
+    /// Bytes of the dictionary section right after the header, in versions 5 to 7 (0 for none); zero
     /// before.
     pub dictionary_bytes: u64,
     /// Zero.
     pub reserved: [u64; 3],
-    /// CRC-32 of the dictionary's bytes in versions 5 and 6; zero before.
+    /// CRC-32 of the dictionary's bytes in versions 5 to 7; zero before.
     pub dictionary_crc: u32,
     /// CRC-32 of the first [`HEADER_CRC_COVERS`] header bytes.
     pub header_crc: u32,

@@ -208,7 +208,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
     if !has_dictionary(version) && (h.dictionary_bytes != 0 || h.dictionary_crc != 0) {
         return Err(field(
             "dictionary_bytes",
-            format!("a dictionary in a version {version} file: only versions 5 and {VERSION} have one"),
+            format!("a dictionary in a version {version} file: only versions 5 to {VERSION} have one"),
         ));
     }
     if h.dictionary_bytes > MAX_DICTIONARY_BYTES {
@@ -292,7 +292,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(Header, u64, Layout), 
         .get(layout.dictionary.clone())
         .ok_or_else(|| truncated(payload_offset))?;
     if crc32fast::hash(dictionary) != h.dictionary_crc {
-        return Err(corrupt(path, "the zstd dictionary does not match its checksum"));
+        return Err(corrupt(path, "the dictionary section does not match its checksum"));
     }
     if crc32fast::hash(index_bytes) != h.index_crc {
         return Err(StorageError::IndexChecksum {

@@ -12,10 +12,12 @@
 //! file or the new one, and readers that have the old one mapped keep reading it.
 
 pub mod codec;
+mod diagonal;
 pub mod dictionary;
 pub mod format;
 mod header;
 mod median;
+pub mod rans;
 mod reader;
 pub mod slice;
 mod writer;
@@ -37,8 +39,8 @@ use crate::voxmap::{
     VoxmapCounts, MAX_LAYERS,
 };
 use codec::{
-    compress_frame, compress_frames, decode_payload, decode_payload_into, distance_fault, encode_brick, median_frame,
-    new_compressor, new_compressor_for, DecodeError, ZSTD_LEVEL,
+    count_distance_symbols, decode_payload, decode_payload_into, distance_fault, encode_brick, encode_brick_diagonal,
+    new_compressor, new_compressor_for, values_frame, DecodeError, ZSTD_LEVEL,
 };
 use dictionary::{Dictionary, TRAINING_BRICKS};
 use format::{
@@ -46,6 +48,7 @@ use format::{
     INDEX_ENTRY_BYTES, MAGIC, MAX_DICTIONARY_BYTES, RUN_ENTRY_BYTES, VERSION, VERSION_LAYERS, VERSION_OFFSET,
 };
 use header::*;
+use rans::Tables;
 pub(crate) use reader::Backing;
 use reader::*;
 pub use reader::{BrickData, Header, VerifyReport, VoxmapFile};
@@ -158,7 +161,7 @@ mod tests {
         let vm = ball_with_distances(3, 60.0);
         assert!(vm.bricks().len() > 1500, "{} bricks", vm.bricks().len());
         let mut sizes = Vec::new();
-        for training in [40, 1500, 1 << 20] {
+        for training in [10, 1500, 1 << 20] {
             let whole = written_in_batches(&vm, training, &[usize::MAX]);
             for batches in [&[1][..], &[39, 2, 100], &[1499, 1, 7]] {
                 assert!(
@@ -167,13 +170,15 @@ mod tests {
                 );
             }
             let file = VoxmapFile::from_bytes(&whole).unwrap();
-            let dictionary = file.layout.dictionary.len();
+            // The zstd dictionary's length, the first field of version 7's section.
+            let section = &whole[file.layout.dictionary.clone()];
+            let dictionary = u32::from_le_bytes(section[..4].try_into().unwrap());
             assert_eq!(file.to_voxmap().unwrap(), vm, "training {training}");
             file.verify().unwrap();
             sizes.push((dictionary, whole.len()));
         }
-        // Forty bricks train no dictionary that pays; 1,500 or all of them do, and the file,
-        // its dictionary included, is smaller.
+        // Ten bricks train no zstd dictionary that pays (the section holds the rANS tables
+        // alone); 1,500 or all of them do, and the file, its dictionary included, is smaller.
         let [(none, plain), (some, smaller), (all, smallest)] = sizes[..] else {
             unreachable!()
         };

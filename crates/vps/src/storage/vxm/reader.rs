@@ -19,7 +19,7 @@ pub struct Header {
     pub inside_runs: u64,
     /// Total compressed bytes of the brick payloads.
     pub payload_bytes: u64,
-    /// Bytes of the zstd dictionary the payloads share (versions 5 and 6; 0 for none).
+    /// Bytes of the dictionary section the payloads share (versions 5 to 7: the zstd dictionary, and in version 7 the rANS tables; 0 for none).
     pub dictionary_bytes: u64,
     /// Length of the file.
     pub file_bytes: u64,
@@ -176,6 +176,10 @@ impl VoxmapFile {
     pub(super) fn from_backing(path: PathBuf, data: Backing) -> Result<VoxmapFile, StorageError> {
         let (header, brick_count, layout) = parse(&path, data.bytes())?;
         let dictionary = match data.bytes().get(layout.dictionary.clone()) {
+            // Version 7's section always holds the rANS tables.
+            Some(bytes) if header.version == VERSION => Some(Arc::new(
+                Dictionary::load_with_tables(bytes).map_err(|e| corrupt(&path, e))?,
+            )),
             Some([]) => None,
             Some(bytes) => Some(Arc::new(
                 Dictionary::load(bytes).ok_or_else(|| corrupt(&path, "zstd does not load the dictionary"))?,

@@ -22,7 +22,7 @@ pub struct WriteReport {
 
 /// Bricks compressed per parallel batch: large enough to keep every core busy, small
 /// enough that a batch of payloads stays a few hundred kilobytes (the frames kept for a
-/// version 6 file's dictionary, up to [`TRAINING_BRICKS`] of them, take about 3.3 MB).
+/// version 7 file's dictionary and tables, up to [`TRAINING_BRICKS`] of them, take about 8 MB).
 pub(super) const BATCH: usize = 4096;
 
 /// Index entries held in memory before they go to the spill file, when there is one (a few
@@ -100,9 +100,9 @@ pub struct VoxmapWriter {
     pub(super) surface_voxels: u64,
     pub(super) inner_voxels: u64,
     pub(super) compressor: zstd::bulk::Compressor<'static>,
-    /// Whether bricks come with distances: version 6 (see [`VoxmapWriter::with_distances`]).
+    /// Whether bricks come with distances: version 7 (see [`VoxmapWriter::with_distances`]).
     pub(super) distances: bool,
-    /// The zstd dictionary of a version 6 file, trained on its first bricks.
+    /// The zstd dictionary and rANS tables of a version 7 file, trained on its first bricks.
     pub(super) dictionary: DictionaryState,
     /// How many first bricks it trains on: [`TRAINING_BRICKS`], fewer in tests.
     pub(super) training_bricks: usize,
@@ -113,19 +113,23 @@ pub(super) enum DictionaryState {
     /// The first bricks' frames, kept until [`TRAINING_BRICKS`] have come (or the file is
     /// finished), to train the dictionary on before any payload is written.
     Training(Vec<PendingBrick>),
-    /// Trained and written: what compresses the bricks after (no dictionary, if none paid
-    /// for itself, or the file has no distances).
+    /// Trained and written: what compresses the bricks after (no zstd dictionary, if none
+    /// paid for itself; no tables if the file has no distances).
     Trained {
         prepared: Option<zstd::dict::EncoderDictionary<'static>>,
+        tables: Option<Tables>,
         bytes: u64,
         crc: u32,
     },
 }
 
-/// A brick waiting for the dictionary: its frame before compression, and its voxel counts.
+/// A brick waiting for the dictionary: its values frame before compression, its values and
+/// distances, and its voxel counts.
 pub(super) struct PendingBrick {
     key: u64,
-    frame: Vec<u8>,
+    frame: [u8; BRICK_VOXELS],
+    values: BrickValues,
+    distances: BrickDistances,
     surface: u64,
     inner: u64,
 }
@@ -180,6 +184,7 @@ impl VoxmapWriter {
             distances: false,
             dictionary: DictionaryState::Trained {
                 prepared: None,
+                tables: None,
                 bytes: 0,
                 crc: 0,
             },
@@ -206,7 +211,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Write a version 6 file, whose bricks carry signed distances: bricks must then come
+    /// Write a version 7 file, whose bricks carry signed distances: bricks must then come
     /// through [`VoxmapWriter::push_bricks_with_distances`]. Call before the first brick.
     pub fn with_distances(&mut self) -> Result<(), StorageError> {
         if self.last_key().is_some() {
@@ -332,7 +337,7 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Append many bricks and their signed distances (one array per brick) to a version 6
+    /// Append many bricks and their signed distances (one array per brick) to a version 7
     /// file ([`VoxmapWriter::with_distances`]), compressing them in parallel. Each distance
     /// must lie within ± the reach of the layers (see [`crate::voxmap::distance_reach`]), and
     /// on the side its value says where a contact reads it
@@ -363,46 +368,21 @@ impl VoxmapWriter {
             prev = Some(b.key);
         }
         for (batch, dists) in bricks.chunks(BATCH).zip(distances.chunks(BATCH)) {
-            if let DictionaryState::Trained { prepared, .. } = &self.dictionary {
-                // Made and compressed in one pass: only the payloads of a batch are held.
-                let payloads: Vec<std::io::Result<(Vec<u8>, u64, u64)>> = batch
-                    .par_iter()
-                    .zip(dists)
-                    .map_init(
-                        || new_compressor_for(prepared.as_ref()),
-                        |c, (b, d)| {
-                            let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
-                            let (surface, inner) = tally(&b.values);
-                            Ok((compress_frame(c, &median_frame(&b.values, d)?)?, surface, inner))
-                        },
-                    )
-                    .collect();
-                for (b, e) in batch.iter().zip(payloads) {
-                    let (payload, surface, inner) = e.map_err(self.io("compress a brick for"))?;
-                    self.push_payload(b.key, &payload, surface, inner)?;
-                }
-                continue;
-            }
-            let frames: Vec<std::io::Result<PendingBrick>> = batch
+            let frames: Vec<PendingBrick> = batch
                 .par_iter()
                 .zip(dists)
                 .map(|(b, d)| {
                     let (surface, inner) = tally(&b.values);
-                    let mut frame = median_frame(&b.values, d)?;
-                    // Kept until the training: no more memory than its bytes.
-                    frame.shrink_to_fit();
-                    Ok(PendingBrick {
+                    PendingBrick {
                         key: b.key,
-                        frame,
+                        frame: values_frame(&b.values),
+                        values: *b.values,
+                        distances: *d,
                         surface,
                         inner,
-                    })
+                    }
                 })
                 .collect();
-            let frames = frames
-                .into_iter()
-                .collect::<std::io::Result<Vec<_>>>()
-                .map_err(self.io("encode a brick for"))?;
             self.push_frames(frames)?;
         }
         Ok(())
@@ -429,10 +409,24 @@ impl VoxmapWriter {
             self.train_dictionary()?;
             frames = rest;
         }
-        let DictionaryState::Trained { prepared, .. } = &self.dictionary else {
+        let DictionaryState::Trained {
+            prepared,
+            tables: Some(tables),
+            ..
+        } = &self.dictionary
+        else {
             return Err(self.invalid("the dictionary is not trained".into()));
         };
-        let payloads = compress_frames(&frames, prepared.as_ref());
+        let payloads: Vec<std::io::Result<Vec<u8>>> = frames
+            .par_iter()
+            .map_init(
+                || new_compressor_for(prepared.as_ref()),
+                |c, b| {
+                    let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
+                    encode_brick_diagonal(c, &b.values, &b.distances, tables)
+                },
+            )
+            .collect();
         for (b, payload) in frames.iter().zip(payloads) {
             let payload = payload.map_err(self.io("compress a brick for"))?;
             self.push_payload(b.key, &payload, b.surface, b.inner)?;
@@ -440,14 +434,19 @@ impl VoxmapWriter {
         Ok(())
     }
 
-    /// Train the dictionary on the bricks kept for it, write it after the header (where no
-    /// payload is yet) and append the bricks compressed with it.
+    /// Train the dictionary and the rANS tables on the bricks kept for them, write them after
+    /// the header (where no payload is yet) and append the bricks coded with them.
     fn train_dictionary(&mut self) -> Result<(), StorageError> {
         let DictionaryState::Training(pending) = &mut self.dictionary else {
             return Ok(());
         };
         let pending = std::mem::take(pending);
         let frames: Vec<&[u8]> = pending.iter().map(|b| b.frame.as_slice()).collect();
+        let mut counts: rans::Counts = [[0; 256]; rans::CONTEXTS];
+        for b in &pending {
+            count_distance_symbols(&b.values, &b.distances, &mut counts);
+        }
+        let tables = Tables::fit(&counts);
         let trained = match dictionary::train(&frames) {
             Ok(trained) => trained,
             Err(source) => {
@@ -456,14 +455,15 @@ impl VoxmapWriter {
                 return Err(self.io("train the zstd dictionary for")(source));
             }
         };
-        let bytes = trained.as_deref().unwrap_or_default();
-        self.write(bytes)?;
+        let section = Dictionary::section(trained.as_deref().unwrap_or_default(), &tables);
+        self.write(&section)?;
         self.dictionary = DictionaryState::Trained {
             prepared: trained
                 .as_deref()
                 .map(|d| zstd::dict::EncoderDictionary::copy(d, ZSTD_LEVEL)),
-            bytes: bytes.len() as u64,
-            crc: crc32fast::hash(bytes),
+            tables: Some(tables),
+            bytes: section.len() as u64,
+            crc: crc32fast::hash(&section),
         };
         self.push_frames(pending)
     }
@@ -611,7 +611,7 @@ pub(super) fn tally(values: &BrickValues) -> (u64, u64) {
         .fold((0, 0), |(s, i), &v| (s + (v == 0) as u64, i + (v > 0) as u64))
 }
 
-/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 6 when it
+/// Write `voxmap` to `path` atomically, compressing its bricks in parallel: version 7 when it
 /// carries signed distances, else version 1.
 pub fn write_voxmap(path: impl AsRef<Path>, voxmap: &Voxmap) -> Result<WriteReport, StorageError> {
     let mut w = VoxmapWriter::create(path, *voxmap.grid(), voxmap.layers())?;
