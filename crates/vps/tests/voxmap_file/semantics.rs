@@ -527,7 +527,7 @@ fn with_a_small_dictionary_and_tables() -> (Voxmap, Vec<u8>) {
     let distances = vm.distances().unwrap();
     let section = Dictionary::section(&zstd, &tables);
     let bytes = reassembled(&latest, &vm, VERSION, &section, |i, b| {
-        encode_brick_diagonal(&mut c, &b.values, &distances[i], &tables).unwrap()
+        encode_brick_diagonal(&mut c, &values_frame(&b.values), &b.values, &distances[i], &tables).unwrap()
     });
     (vm, bytes)
 }

@@ -121,13 +121,13 @@ pub fn encode_brick(compressor: &mut zstd::bulk::Compressor<'_>, values: &BrickV
 
 /// `0, -1, 1, -2, 2, …` to `0, 1, 2, 3, 4, …`: small magnitudes to small numbers.
 #[inline]
-fn zigzag(r: i16) -> u16 {
+pub(super) fn zigzag(r: i16) -> u16 {
     ((r << 1) ^ (r >> 15)) as u16
 }
 
 /// The inverse of [`zigzag`].
 #[inline]
-fn unzigzag(z: u16) -> i16 {
+pub(super) fn unzigzag(z: u16) -> i16 {
     ((z >> 1) as i16) ^ -((z & 1) as i16)
 }
 
@@ -217,17 +217,19 @@ pub fn compress_frame(compressor: &mut zstd::bulk::Compressor<'_>, frame: &[u8])
     payload_of(compressor, frame, MAX_PAYLOAD_BYTES_MEDIAN)
 }
 
-/// Compress one brick with its distances into a codec-7 payload: the value residuals of codec
-/// 1 in a zstd frame (with the file's dictionary, if `compressor` has it), then the stream of
-/// the distances a contact reads ([`distance_is_read`]) coded with `tables` (`diagonal.rs`).
-/// The others are not stored and decode to their [`outer_distance`].
+/// Compress one brick with its distances into a codec-7 payload: its values frame (the value
+/// residuals of codec 1, [`values_frame`], which the writer has made already to train on) in
+/// a zstd frame (with the file's dictionary, if `compressor` has it), then the stream of the
+/// distances a contact reads ([`distance_is_read`]) coded with `tables` (`diagonal.rs`). The
+/// others are not stored and decode to their [`outer_distance`].
 pub fn encode_brick_diagonal(
     compressor: &mut zstd::bulk::Compressor<'_>,
+    frame: &[u8; BRICK_VOXELS],
     values: &BrickValues,
     distances: &BrickDistances,
     tables: &Tables,
 ) -> std::io::Result<Vec<u8>> {
-    let mut payload = payload_of(compressor, &predict(values), MAX_PAYLOAD_BYTES)?;
+    let mut payload = payload_of(compressor, frame, MAX_PAYLOAD_BYTES)?;
     diagonal::encode(values, distances, tables, &mut payload);
     if payload.len() > MAX_PAYLOAD_BYTES_MEDIAN {
         return Err(std::io::Error::other(format!(

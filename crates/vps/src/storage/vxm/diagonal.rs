@@ -17,17 +17,18 @@
 //! neighbours. The largest residual among five neighbours coded before tells that better
 //! than the spread of the voxel's own candidates did (the VTK gears' file 1.438 times its
 //! version 1 file instead of 1.463, both with eight candidates), and it depends on no
-//! prediction: a decoder reads all a
-//! brick's residuals first, in one loop of table look-ups, and then predicts row after row,
-//! no lane waiting on the entropy coder (`docs/PERFORMANCE.md`, "Version 7").
+//! prediction: a decoder reads all a brick's residuals first, in one loop of table look-ups,
+//! and then predicts row after row, no lane waiting on the entropy coder
+//! (`docs/PERFORMANCE.md`, "Version 7").
 
 use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{distance_is_read, outer_distance, BrickDistances, BrickValues};
 
+use super::codec::{unzigzag, zigzag};
 use super::rans::{Counts, Decoder, Encoder, Tables};
 
-/// Row stride of the field: `x + 2`, for `x` from −2 (two before) to 9 (eight lanes read one
-/// ahead), padded to 16.
+/// Row stride of the field: `x + 2`, for `x` from −2 to 7 (the candidates read back to
+/// `x − 1` from the field, and to `x − 2` from the rows kept in registers), padded to 16.
 const ROW: usize = 16;
 /// The steps of the wavefront: `t = x + y + 8z` from 0 to 70.
 const STEPS: usize = 71;
@@ -315,18 +316,6 @@ fn median_of_seven(mut v: [i32; 7]) -> i32 {
     v[3]
 }
 
-/// `0, -1, 1, -2, 2, …` to `0, 1, 2, 3, 4, …`.
-#[inline(always)]
-fn zigzag(r: i16) -> u16 {
-    ((r << 1) ^ (r >> 15)) as u16
-}
-
-/// The inverse of [`zigzag`].
-#[inline(always)]
-fn unzigzag(z: u16) -> i16 {
-    ((z >> 1) as i16) ^ -((z & 1) as i16)
-}
-
 /// The residual of `distance` against `prediction`, zigzagged: wrapping in 16 bits, so that any
 /// distance has one.
 #[cfg(test)]
@@ -352,30 +341,33 @@ fn residuals(values: &BrickValues, distances: &BrickDistances, lanes: &[u8; STEP
     residuals
 }
 
-/// Add the symbols of a brick of `values` and `distances` (those of the voxels a contact reads)
-/// to `counts`, which [`Tables::fit`] then trains on: what [`encode`] would code, before
-/// escapes.
-pub fn count(values: &BrickValues, distances: &BrickDistances, counts: &mut Counts) {
+/// `symbol(context, z)` for the zigzagged residual `z` of each voxel of a brick of `values`
+/// and `distances` a contact reads, in codec 7's order: what [`count`] counts and [`encode`]
+/// codes.
+fn for_each_symbol(values: &BrickValues, distances: &BrickDistances, mut symbol: impl FnMut(usize, u16)) {
     let lanes = stored_lanes(values);
     let r = residuals(values, distances, &lanes);
     code(&lanes, |t, x, context| {
         let z = zigzag(r[t][x]);
-        counts[context][usize::from(z.min(255))] += 1;
+        symbol(context, z);
         z
+    });
+}
+
+/// Add the symbols of a brick of `values` and `distances` (those of the voxels a contact reads)
+/// to `counts`, which [`Tables::fit`] then trains on: what [`encode`] would code, before
+/// escapes.
+pub fn count(values: &BrickValues, distances: &BrickDistances, counts: &mut Counts) {
+    for_each_symbol(values, distances, |context, z| {
+        counts[context][usize::from(z.min(255))] += 1
     });
 }
 
 /// The stream of a brick's distances (those of the voxels a contact reads), coded with
 /// `tables`, appended to `out`: nothing if the brick has none.
 pub fn encode(values: &BrickValues, distances: &BrickDistances, tables: &Tables, out: &mut Vec<u8>) {
-    let lanes = stored_lanes(values);
-    let r = residuals(values, distances, &lanes);
     let mut e = Encoder::default();
-    code(&lanes, |t, x, context| {
-        let z = zigzag(r[t][x]);
-        e.push(tables, context, z);
-        z
-    });
+    for_each_symbol(values, distances, |context, z| e.push(tables, context, z));
     e.finish(tables, out);
 }
 
@@ -393,32 +385,31 @@ pub fn decode_into(
         if !stream.is_empty() {
             return Err(format!("{} bytes of distances for a brick with none", stream.len()));
         }
-    } else {
-        let mut d = Decoder::new(stream)?;
-        let mut residuals = [[0i16; 8]; STEPS];
-        code(&lanes, |t, x, context| {
-            let z = d.residual(tables, context);
-            residuals[t][x] = unzigzag(z);
-            z
-        });
-        d.finish()?;
-        let mut distances = [[0i16; 8]; STEPS];
-        predict(values, &lanes, &mut distances, &mut residuals, true);
-        // Voxel (x, y, z) is row y + 8z + x, lane x.
-        for (r, (out, values)) in out.chunks_exact_mut(8).zip(values.chunks_exact(8)).enumerate() {
-            for x in 0..8 {
-                let decoded = distances[r + x][x];
-                out[x] = if distance_is_read(values[x]) {
-                    decoded
-                } else {
-                    outer_distance(values[x])
-                };
-            }
+        for (d, &v) in out.iter_mut().zip(values) {
+            *d = outer_distance(v);
         }
         return Ok(());
     }
-    for (d, &v) in out.iter_mut().zip(values) {
-        *d = outer_distance(v);
+    let mut d = Decoder::new(stream)?;
+    let mut residuals = [[0i16; 8]; STEPS];
+    code(&lanes, |t, x, context| {
+        let z = d.residual(tables, context);
+        residuals[t][x] = unzigzag(z);
+        z
+    });
+    d.finish()?;
+    let mut distances = [[0i16; 8]; STEPS];
+    predict(values, &lanes, &mut distances, &mut residuals, true);
+    // Voxel (x, y, z) is row y + 8z + x, lane x.
+    for (r, (out, values)) in out.chunks_exact_mut(8).zip(values.chunks_exact(8)).enumerate() {
+        for x in 0..8 {
+            let decoded = distances[r + x][x];
+            out[x] = if distance_is_read(values[x]) {
+                decoded
+            } else {
+                outer_distance(values[x])
+            };
+        }
     }
     Ok(())
 }

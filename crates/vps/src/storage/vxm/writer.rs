@@ -423,7 +423,7 @@ impl VoxmapWriter {
                 || new_compressor_for(prepared.as_ref()),
                 |c, b| {
                     let c = c.as_mut().map_err(|e| std::io::Error::new(e.kind(), e.to_string()))?;
-                    encode_brick_diagonal(c, &b.values, &b.distances, tables)
+                    encode_brick_diagonal(c, &b.frame, &b.values, &b.distances, tables)
                 },
             )
             .collect();
