@@ -12,6 +12,10 @@
 //! VTK gears' file 1.430 times its version 1 file against 1.438), with fewer sums and a
 //! smaller network (`docs/PERFORMANCE.md`, "Version 7").
 //!
+//! The decoder predicts in another order than it codes, `x + y + 4z` ([`Wave`]): sixteen
+//! voxels a step, in 16-bit lanes, 43 steps a brick instead of 71. Each candidate reads
+//! voxels before it in both orders, so the predictions are the same.
+//!
 //! Why contexts of residuals: where the field is smooth the residual is nearly always 0 or
 //! ±1, near a kink (a mesh edge, the medial axis) it is anything, and kinks run on through
 //! neighbours. The largest residual among five neighbours coded before tells that better
@@ -21,57 +25,25 @@
 //! and then predicts row after row, no lane waiting on the entropy coder
 //! (`docs/PERFORMANCE.md`, "Version 7").
 
-use crate::grid::BRICK_VOXELS;
 use crate::voxmap::{distance_is_read, outer_distance, BrickDistances, BrickValues};
 
 use super::codec::{unzigzag, zigzag};
 use super::rans::{Counts, Decoder, Encoder, Tables};
 
-/// Row stride of the field: `x + 2`, for `x` from −2 to 7 (the candidates read back to
-/// `x − 1` from the field, and to `x − 2` from the rows kept in registers), padded to 16.
-const ROW: usize = 16;
-/// The steps of the wavefront: `t = x + y + 8z` from 0 to 70.
+/// The steps of the coding order: `t = x + y + 8z` from 0 to 70.
 const STEPS: usize = 71;
-/// Rows before the first step: the candidates read back to `t − 16` (two slices below).
-const BEFORE: usize = 16;
-/// The field's length.
-const FIELD: usize = (BEFORE + STEPS) * ROW;
-/// A voxel not available to predict with: beyond the brick, not stored (value −2 or less) or
-/// not decoded yet.
-const NONE: i32 = i32::MIN;
-/// Beyond any candidate: distances are under 2¹⁵ in magnitude, so candidates under 3·2¹⁵.
-const FAR: i32 = 1 << 20;
 
-/// The distances known so far, skewed so that a step of the wavefront is a row of memory:
-/// voxel `(x, y, z)` at row `x + y + 8z` and column `x` (each row and column then holds each
-/// voxel once: `y = (t − x) mod 8`, `z = (t − x) div 8`).
-type Field = [i32; FIELD];
-
-/// Index in the field of row `t`, column `x`.
-#[inline(always)]
-const fn at(t: usize, x: usize) -> usize {
-    (t + BEFORE) * ROW + x + 2
-}
-
-/// The brick voxel of wavefront row `t` and column `x`, one of the brick's (`0 ≤ t − x < 64`),
-/// as its local index.
-#[inline(always)]
-const fn voxel(t: usize, x: usize) -> usize {
-    let d = t - x;
-    x + 8 * (d & 7) + 64 * (d >> 3)
-}
-
-/// Eight lanes of each wavefront row, by column `x`: a brick's residuals or distances skewed.
-type Rows = [[i16; 8]; STEPS];
-
-/// Which lanes of each wavefront row hold a voxel whose distance a contact reads: bit `x` of
-/// row `t`. Known from the values alone, before any distance. Eight voxels at a time, in a
-/// word: a loop over voxels, a compare each, took about 0.4 µs of a brick's 5 (`perf`).
-fn stored_lanes(values: &BrickValues) -> [u8; STEPS] {
+/// Which lanes of each step hold a voxel whose distance a contact reads, in the coding order
+/// (bit `x` of row `t`) and in [`Wave`]'s (bit `j` of step `s`). Known from the values alone,
+/// before any distance. Eight voxels at a time, in a word: a loop over voxels, a compare
+/// each, took about 0.4 µs of a brick's 5 (`perf`).
+fn stored_lanes(values: &BrickValues) -> ([u8; STEPS], [u16; WAVE_STEPS]) {
     const HIGH: u64 = 0x8080_8080_8080_8080;
     const LOW: u64 = 0x7F7F_7F7F_7F7F_7F7F;
-    // Bit x of the row y + 8z (after seven empty rows) for each stored voxel (x, y, z).
+    // Bit x of each stored voxel (x, y, z): at y + 8z (after seven empty rows), and at
+    // y + 4z in the rows of z's parity (after seven empty rows).
     let mut rows = [0u8; 7 + 64 + 7];
+    let mut by_parity = [[0u8; 7 + 36 + 7]; 2];
     for (r, row) in values.chunks_exact(8).enumerate() {
         let w = u64::from_le_bytes(std::array::from_fn(|x| row[x] as u8));
         // A byte is not read if it is −128 to −2: its sign bit set and its low seven bits
@@ -79,20 +51,29 @@ fn stored_lanes(values: &BrickValues) -> [u8; STEPS] {
         let not_minus_one = ((!w & LOW) + LOW) & HIGH;
         let stored = !(w & not_minus_one) & HIGH;
         // Gather the eight sign bits into one byte, bit x from byte x.
-        rows[7 + r] = ((stored >> 7).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8;
+        let bits = ((stored >> 7).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8;
+        let (y, z) = (r & 7, r >> 3);
+        rows[7 + r] = bits;
+        by_parity[z & 1][7 + y + 4 * z] = bits;
     }
-    // Row t, lane x is row t − x's bit x: of the eight rows t − 7 to t, byte j keeps bit 7 − j.
-    std::array::from_fn(|t| {
+    // Lane x of row t is bit x of the row t − x before it: of the eight rows t − 7 to t,
+    // byte j keeps bit 7 − j.
+    let diagonal = |rows: &[u8], t: usize| -> u8 {
         let w = u64::from_le_bytes(rows[t..t + 8].try_into().expect("8 rows")) & 0x0102_0408_1020_4080;
         let w = w | w >> 32;
         let w = w | w >> 16;
         (w | w >> 8) as u8
-    })
+    };
+    let coding = std::array::from_fn(|t| diagonal(&rows, t));
+    let wave =
+        std::array::from_fn(|s| u16::from(diagonal(&by_parity[0], s)) | u16::from(diagonal(&by_parity[1], s)) << 8);
+    (coding, wave)
 }
 
 /// The lanes set in `bits`, lowest first.
 #[inline(always)]
-fn lanes_of(mut bits: u8) -> impl Iterator<Item = usize> {
+fn lanes_of(bits: impl Into<u16>) -> impl Iterator<Item = usize> {
+    let mut bits: u16 = bits.into();
     std::iter::from_fn(move || {
         (bits != 0).then(|| {
             let x = bits.trailing_zeros() as usize;
@@ -163,91 +144,139 @@ fn max_bytes(a: u64, b: u64) -> u64 {
     (a & select) | (b & !select)
 }
 
-/// The predictions of the stored voxels (their `lanes`) step after step, the distances known
-/// so far in a [`Field`]. Decoding, each distance is its prediction plus its residual from
-/// `residuals`, written to `distances`; encoding, the residual of each distance in
-/// `distances` is written to `residuals`. Lanes not stored are left as they are.
+/// The steps of the prediction order: `s = x + y + 4z` from 0 to 42.
+const WAVE_STEPS: usize = 43;
+
+/// Sixteen lanes of each step of the prediction order: voxel `(x, y, z)` at step
+/// `x + y + 4z`, lane `x + 8·(z mod 2)` (the two voxels of one step and column have `z` one
+/// apart). A brick's residuals or distances in that order.
+type Wave = [[i16; 16]; WAVE_STEPS];
+
+/// The step and lane of the prediction order ([`Wave`]) of the voxel at row `t`, column `x`
+/// of the coding order.
+#[inline(always)]
+const fn wave_at(t: usize, x: usize) -> (usize, usize) {
+    let z = (t - x) >> 3;
+    (t - 4 * z, x + 8 * (z & 1))
+}
+
+/// The brick voxel at step `s`, lane `j` of the prediction order, if there is one.
+#[inline(always)]
+fn wave_voxel(s: usize, j: usize) -> Option<usize> {
+    let (x, odd) = (j & 7, j >> 3);
+    let d = s.checked_sub(x)?;
+    // y + 4z = d with z of the lane's parity: z is d div 4 or one less.
+    let z = (d >> 2).checked_sub(usize::from((d >> 2) & 1 != odd))?;
+    let y = d.checked_sub(4 * z)?;
+    (y < 8 && z < 8).then_some(x + 8 * y + 64 * z)
+}
+
+/// What the prediction adds to every distance: biased, the distances of a valid file (within
+/// ± 4,048 steps, the reach of 126 layers) and their candidates (within ± 12,144) are
+/// positive 16-bit numbers, so 0 can mark a voxel not available and a lane masked out is a
+/// lane and-ed with 0. A candidate's and a median's bias is the distances' own: both commute
+/// with adding a constant.
+const BIAS: i16 = 1 << 14;
+/// A voxel not available to predict with, biased: beyond the brick, not stored or masked.
+const NONE: i16 = 0;
+
+/// The predictions of the stored voxels (`stored`, bit `j` of step `s`) step after step of
+/// [`Wave`]'s order, sixteen lanes of 16 bits at once. Decoding, each distance is its
+/// prediction plus its residual from `residuals`, written to `distances`; encoding, the
+/// residual of each distance in `distances` is written to `residuals`. Lanes not stored are
+/// left as they are.
 ///
-/// A row is computed eight lanes at once ([`step`]) and written to the field with one store;
-/// the two rows before, which the next step reads shifted by a lane or two, are kept in
-/// registers, so that no step waits for the stores of the one before.
+/// Why another order than the coding order: each candidate reads voxels one to two back
+/// along an axis, which come before in both orders, so the predictions are those of the
+/// coding order; but a step here holds twice the voxels in half the bits (43 steps of
+/// sixteen 16-bit lanes, not 71 of eight 32-bit ones). The distances of a valid file and
+/// their candidates fit in 16 bits ([`BIAS`]); where a corrupt stream decodes a distance
+/// beyond them, the first such distance is decoded as the definition says (all it reads is
+/// within them) and [`distance_fault`](super::codec::distance_fault) refuses the brick.
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
-fn predict(values: &BrickValues, lanes: &[u8; STEPS], distances: &mut Rows, residuals: &mut Rows, decoding: bool) {
-    let mut f: Field = [NONE; FIELD];
-    let (mut back1, mut back2) = ([NONE; 8], [NONE; 8]);
-    for (t, &bits) in lanes.iter().enumerate() {
+fn predict(
+    values: &BrickValues,
+    stored: &[u16; WAVE_STEPS],
+    distances: &mut Wave,
+    residuals: &mut Wave,
+    decoding: bool,
+) {
+    // Steps −8 to 42, biased; the eight before the brick and those of no stored voxel hold
+    // NONE.
+    let mut f = [[NONE; 16]; 8 + WAVE_STEPS];
+    let (mut back1, mut back2) = ([NONE; 16], [NONE; 16]);
+    for (s, &bits) in stored.iter().enumerate() {
         if bits == 0 {
-            (back1, back2) = ([NONE; 8], back1);
+            (back1, back2) = ([NONE; 16], back1);
             continue;
         }
-        let mut p = step(&f, t, &back1, &back2);
-        if p.contains(&NONE) {
-            for x in lanes_of(bits) {
-                if p[x] == NONE {
-                    p[x] = 32 * i32::from(values[voxel(t, x)]);
-                }
-            }
+        let mut p = step(&f, s, &back1, &back2);
+        // Lanes of no voxel have no candidates either: only the stored lanes are checked.
+        let missing = (0..16).fold(0u16, |m, j| m | u16::from(p[j] == NONE) << j) & bits;
+        for j in lanes_of(missing) {
+            let v = wave_voxel(s, j).map_or(0, |i| values[i]);
+            p[j] = (32 * i16::from(v)).wrapping_add(BIAS);
         }
-        let mut row = [NONE; 8];
-        for j in 0..8 {
-            let prediction = p[j] as i16;
+        let keep: [bool; 16] = std::array::from_fn(|j| bits & 1 << j != 0);
+        let mut row = [NONE; 16];
+        for j in 0..16 {
+            let prediction = p[j].wrapping_sub(BIAS);
             let d = if decoding {
-                prediction.wrapping_add(residuals[t][j])
+                prediction.wrapping_add(residuals[s][j])
             } else {
-                distances[t][j]
+                distances[s][j]
             };
-            let stored = bits >> j & 1 != 0;
+            let keep = keep[j];
             if decoding {
-                distances[t][j] = if stored { d } else { distances[t][j] };
+                distances[s][j] = if keep { d } else { distances[s][j] };
             } else {
-                residuals[t][j] = if stored {
+                residuals[s][j] = if keep {
                     d.wrapping_sub(prediction)
                 } else {
-                    residuals[t][j]
+                    residuals[s][j]
                 };
             }
-            row[j] = if stored { i32::from(d) } else { NONE };
+            row[j] = if keep { d.wrapping_add(BIAS) } else { NONE };
         }
-        f[at(t, 0)..at(t, 0) + 8].copy_from_slice(&row);
+        f[s + 8] = row;
         (back1, back2) = (row, back1);
     }
 }
 
-/// The predictions of wavefront row `t`'s eight lanes (`x` = 0 to 7; lanes beyond the brick,
-/// in the first and last seven rows, are computed too and not used), with `back1` and
-/// `back2` the field's rows `t − 1` and `t − 2`: for each lane (voxel `y = (t − x) mod 8`,
-/// `z = (t − x) div 8`) the candidates `A = a + b − ab`, `B = a + c − ac`, `C = b + c − bc`,
-/// `D = 2a − a₂`, `E = 2b − b₂`, `F = 2c − c₂` (codec 4's names), each available when the
-/// voxels it reads are; padded to seven with the unavailable ones alternately far below and
-/// far above, the first below, the fourth smallest is the lower median of the available
-/// ones. With none available, the first available of `a`, `b`, `c`,
-/// else [`NONE`] (the prediction is then `32·value`). One loop over the lanes, which the
-/// compiler vectorizes.
+/// The biased predictions of step `s`'s sixteen lanes (lanes of no voxel are computed too
+/// and not used), with `back1` and `back2` steps `s − 1` and `s − 2`, the steps before in
+/// `f` (step `s'` at `f[s' + 8]`): for each lane, voxel `(x, y, z)`, the candidates
+/// `A = a + b − ab`, `B = a + c − ac`, `C = b + c − bc`, `D = 2a − a₂`, `E = 2b − b₂`,
+/// `F = 2c − c₂` (codec 4's names), each available when the voxels it reads are; padded to
+/// seven with the unavailable ones alternately lowest and highest, the first lowest, the
+/// fourth smallest is the lower median of the available ones. With none available, the
+/// first available of `a`, `b`, `c`, else [`NONE`] (the prediction is then `32·value`). One
+/// loop over the lanes, which the compiler vectorizes.
 ///
-/// Every neighbour lies on an earlier row, at a fixed offset: `a` at (t − 1, x − 1), `b` at
-/// (t − 1, x), `c` at (t − 8, x), and so on. Those that step back along y find another voxel
-/// there when `y` is 0 (or 1, two back), so they are masked by `y`; along x the
-/// padding columns, along z the rows before the brick, hold [`NONE`].
+/// Every neighbour lies on an earlier step, at a fixed lane: along x (`a` at `s − 1`) one
+/// lane down within the lane's half, along y (`b` at `s − 1`) the same lane, along z (`c` at
+/// `s − 4`) the same `x` in the other half. Those that step back along x are masked by `x`,
+/// those along y by `y` (they find another voxel at their place when `y` is 0, or 1 two
+/// back); along z the steps before the brick and the lanes of no voxel hold [`NONE`].
 #[inline(always)]
-fn step(f: &Field, t: usize, back1: &[i32; 8], back2: &[i32; 8]) -> [i32; 8] {
-    let row = |back: usize, dx: isize| -> [i32; 8] {
-        let from = (at(t, 0) - back * ROW) as isize + dx;
-        f[from as usize..from as usize + 8].try_into().expect("8 lanes")
-    };
-    // Shifted by `k` lanes: column x − k, NONE before the first.
-    let shifted =
-        |r: &[i32; 8], k: usize| -> [i32; 8] { std::array::from_fn(|j| if j >= k { r[j - k] } else { NONE }) };
-    let (a, b, c) = (shifted(back1, 1), *back1, row(8, 0));
-    let (ab, a2, b2) = (shifted(back2, 1), shifted(back2, 2), *back2);
-    let (ac, bc, c2) = (row(9, -1), row(9, 0), row(16, 0));
-    let mut out = [0; 8];
-    for j in 0..8 {
-        // `t ≥ j` is not needed: the lanes before the brick are not used.
-        let y = (t as i32 - j as i32) & 7;
-        let masked = |v: i32, ok: bool| if ok { v } else { NONE };
-        let (b, ab, bc) = (masked(b[j], y >= 1), masked(ab[j], y >= 1), masked(bc[j], y >= 1));
-        let b2 = masked(b2[j], y >= 2);
-        let plane = |p: i32, q: i32, pq: i32| -> (i32, bool) {
+fn step(f: &[[i16; 16]; 8 + WAVE_STEPS], s: usize, back1: &[i16; 16], back2: &[i16; 16]) -> [i16; 16] {
+    // Lane j − k within the lane's half: NONE where that is before x = 0.
+    let down =
+        |r: &[i16; 16], k: usize| -> [i16; 16] { std::array::from_fn(|j| if j & 7 >= k { r[j - k] } else { NONE }) };
+    // The other half: the same x, z one apart.
+    let across = |r: &[i16; 16]| -> [i16; 16] { std::array::from_fn(|j| r[j ^ 8]) };
+    let (a, b, ab) = (down(back1, 1), *back1, down(back2, 1));
+    let (a2, b2) = (down(back2, 2), *back2);
+    let (c, behind) = (across(&f[s + 4]), across(&f[s + 3]));
+    let (ac, bc, c2) = (down(&behind, 1), behind, f[s]);
+    let mut out = [0; 16];
+    for j in 0..16 {
+        // y from s − x = y + 4z, z of the lane's parity.
+        let d = s as i16 - (j & 7) as i16;
+        let y = 4 * (((d >> 2) ^ (j >> 3) as i16) & 1) + (d & 3);
+        let (y1, y2) = (-i16::from(y >= 1), -i16::from(y >= 2));
+        let (b, ab, bc, b2) = (b[j] & y1, ab[j] & y1, bc[j] & y1, b2[j] & y2);
+        let plane = |p: i16, q: i16, pq: i16| -> (i16, bool) {
             (p.wrapping_add(q).wrapping_sub(pq), p != NONE && q != NONE && pq != NONE)
         };
         let candidates = [
@@ -258,20 +287,20 @@ fn step(f: &Field, t: usize, back1: &[i32; 8], back2: &[i32; 8]) -> [i32; 8] {
             plane(b, b, b2),
             plane(c[j], c[j], c2[j]),
         ];
-        let mut v = [0i32; 7];
+        let mut v = [0i16; 7];
         let (mut high, mut n) = (false, 0);
         for (k, &(value, ok)) in candidates.iter().enumerate() {
             v[k] = if ok {
                 value
             } else if high {
-                FAR
+                i16::MAX
             } else {
-                -FAR
+                i16::MIN
             };
             high ^= !ok;
-            n += ok as i32;
+            n += ok as i16;
         }
-        v[6] = if high { FAR } else { -FAR };
+        v[6] = if high { i16::MAX } else { i16::MIN };
         let first = if a[j] != NONE {
             a[j]
         } else if b != NONE {
@@ -292,9 +321,9 @@ fn step(f: &Field, t: usize, back1: &[i32; 8], back2: &[i32; 8]) -> [i32; 8] {
 /// (written out: as a loop over the pairs it is not unrolled, and each exchange goes through
 /// memory).
 #[inline(always)]
-fn median_of_seven(mut v: [i32; 7]) -> i32 {
+fn median_of_seven(mut v: [i16; 7]) -> i16 {
     #[inline(always)]
-    fn sort(v: &mut [i32; 7], i: usize, j: usize) {
+    fn sort(v: &mut [i16; 7], i: usize, j: usize) {
         let (lo, hi) = (v[i].min(v[j]), v[i].max(v[j]));
         v[i] = lo;
         v[j] = hi;
@@ -323,21 +352,17 @@ fn residual(distance: i16, prediction: i32) -> u16 {
     zigzag(distance.wrapping_sub(prediction as i16))
 }
 
-/// Rows `t`, lanes `x` of a brick's stored voxels (those of its `lanes`), from their voxels.
-fn skew(lanes: &[u8; STEPS], by_voxel: &[i16; BRICK_VOXELS]) -> Rows {
-    let mut rows = [[0i16; 8]; STEPS];
-    for (t, &bits) in lanes.iter().enumerate() {
-        for x in lanes_of(bits) {
-            rows[t][x] = by_voxel[voxel(t, x)];
+/// The residuals of a brick's stored voxels (those of its `lanes`, bit `j` of step `s`), in
+/// [`Wave`]'s order.
+fn residuals(values: &BrickValues, distances: &BrickDistances, lanes: &[u16; WAVE_STEPS]) -> Wave {
+    let mut skewed = [[0i16; 16]; WAVE_STEPS];
+    for (s, &bits) in lanes.iter().enumerate() {
+        for j in lanes_of(bits) {
+            skewed[s][j] = wave_voxel(s, j).map_or(0, |i| distances[i]);
         }
     }
-    rows
-}
-
-/// The residuals of a brick's stored voxels (those of its `lanes`), skewed.
-fn residuals(values: &BrickValues, distances: &BrickDistances, lanes: &[u8; STEPS]) -> Rows {
-    let mut residuals = [[0i16; 8]; STEPS];
-    predict(values, lanes, &mut skew(lanes, distances), &mut residuals, false);
+    let mut residuals = [[0i16; 16]; WAVE_STEPS];
+    predict(values, lanes, &mut skewed, &mut residuals, false);
     residuals
 }
 
@@ -345,10 +370,11 @@ fn residuals(values: &BrickValues, distances: &BrickDistances, lanes: &[u8; STEP
 /// and `distances` a contact reads, in codec 7's order: what [`count`] counts and [`encode`]
 /// codes.
 fn for_each_symbol(values: &BrickValues, distances: &BrickDistances, mut symbol: impl FnMut(usize, u16)) {
-    let lanes = stored_lanes(values);
-    let r = residuals(values, distances, &lanes);
+    let (lanes, wave) = stored_lanes(values);
+    let r = residuals(values, distances, &wave);
     code(&lanes, |t, x, context| {
-        let z = zigzag(r[t][x]);
+        let (s, j) = wave_at(t, x);
+        let z = zigzag(r[s][j]);
         symbol(context, z);
         z
     });
@@ -373,14 +399,15 @@ pub fn encode(values: &BrickValues, distances: &BrickDistances, tables: &Tables,
 
 /// Decode the distances of a brick of `values` from `stream` into `out`: those of the voxels a
 /// contact reads from the stream, which must end with the last of them, the others their
-/// [`outer_distance`]. The residuals come first, all of them, and then the predictions.
+/// [`outer_distance`]. The residuals come first, all of them, put in [`Wave`]'s order, and
+/// then the predictions.
 pub fn decode_into(
     values: &BrickValues,
     stream: &[u8],
     tables: &Tables,
     out: &mut BrickDistances,
 ) -> Result<(), String> {
-    let lanes = stored_lanes(values);
+    let (lanes, wave) = stored_lanes(values);
     if lanes.iter().all(|&bits| bits == 0) {
         if !stream.is_empty() {
             return Err(format!("{} bytes of distances for a brick with none", stream.len()));
@@ -391,19 +418,22 @@ pub fn decode_into(
         return Ok(());
     }
     let mut d = Decoder::new(stream)?;
-    let mut residuals = [[0i16; 8]; STEPS];
+    let mut residuals = [[0i16; 16]; WAVE_STEPS];
     code(&lanes, |t, x, context| {
         let z = d.residual(tables, context);
-        residuals[t][x] = unzigzag(z);
+        let (s, j) = wave_at(t, x);
+        residuals[s][j] = unzigzag(z);
         z
     });
     d.finish()?;
-    let mut distances = [[0i16; 8]; STEPS];
-    predict(values, &lanes, &mut distances, &mut residuals, true);
-    // Voxel (x, y, z) is row y + 8z + x, lane x.
+    let mut distances = [[0i16; 16]; WAVE_STEPS];
+    predict(values, &wave, &mut distances, &mut residuals, true);
+    // Voxel (x, y, z) is step y + 4z + x, lane x + 8·(z mod 2).
     for (r, (out, values)) in out.chunks_exact_mut(8).zip(values.chunks_exact(8)).enumerate() {
+        let (y, z) = (r & 7, r >> 3);
+        let (s, half) = (y + 4 * z, 8 * (z & 1));
         for x in 0..8 {
-            let decoded = distances[r + x][x];
+            let decoded = distances[s + x][x + half];
             out[x] = if distance_is_read(values[x]) {
                 decoded
             } else {
@@ -417,8 +447,17 @@ pub fn decode_into(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::BRICK_VOXELS;
     use crate::storage::vxm::rans::CONTEXTS;
+    use crate::voxmap::{far_distance, MAX_LAYERS};
     use proptest::prelude::*;
+
+    /// The brick voxel of row `t` and column `x` of the coding order, one of the brick's
+    /// (`0 ≤ t − x < 64`), as its local index.
+    fn voxel(t: usize, x: usize) -> usize {
+        let d = t - x;
+        x + 8 * (d & 7) + 64 * (d >> 3)
+    }
 
     /// The prediction of voxel `i` from the definition, voxel by voxel: the candidates read
     /// `known`, the distances decoded before it (`None` where not available).
@@ -476,22 +515,54 @@ mod tests {
     }
 
     /// A brick: values from −3 to 3 (−2 and −3 not stored), distances near a plane with
-    /// noise, or anything.
+    /// noise, or anything a valid file holds (within the reach of the most layers).
     fn brick() -> impl Strategy<Value = (BrickValues, BrickDistances)> {
+        let reach = far_distance(MAX_LAYERS, 1);
         (
             prop::collection::vec(-3i8..=3, BRICK_VOXELS),
             prop::collection::vec(any::<i16>(), BRICK_VOXELS),
             (-40i32..40, -40i32..40, -40i32..40, 0i32..6, any::<bool>()),
         )
-            .prop_map(|(v, noise, (gx, gy, gz, amp, wild))| {
+            .prop_map(move |(v, noise, (gx, gy, gz, amp, wild))| {
                 let mut d = [0i16; BRICK_VOXELS];
                 for i in 0..BRICK_VOXELS {
                     let (x, y, z) = ((i & 7) as i32, ((i >> 3) & 7) as i32, (i >> 6) as i32);
                     let smooth = gx * x + gy * y + gz * z + if amp > 0 { i32::from(noise[i]) % amp } else { 0 };
-                    d[i] = if wild { noise[i] } else { smooth as i16 };
+                    d[i] = if wild {
+                        noise[i] % (reach + 1)
+                    } else {
+                        (smooth as i16).clamp(-reach, reach)
+                    };
                 }
                 (v.try_into().unwrap(), d)
             })
+    }
+
+    /// A brick's distances coded with tables fitted to the bricks `train_v`, `train_d` come
+    /// back from the stream: those a contact reads as they were, the others their
+    /// [`outer_distance`].
+    fn round_trip(
+        values: &BrickValues,
+        distances: &BrickDistances,
+        train_v: &BrickValues,
+        train_d: &BrickDistances,
+    ) -> Result<(), TestCaseError> {
+        let mut counts = [[0u64; 256]; CONTEXTS];
+        count(train_v, train_d, &mut counts);
+        let tables = Tables::fit(&counts);
+        let mut stream = Vec::new();
+        encode(values, distances, &tables, &mut stream);
+        let mut out = [0i16; BRICK_VOXELS];
+        decode_into(values, &stream, &tables, &mut out).unwrap();
+        for i in 0..BRICK_VOXELS {
+            let want = if distance_is_read(values[i]) {
+                distances[i]
+            } else {
+                outer_distance(values[i])
+            };
+            prop_assert_eq!(out[i], want, "voxel {}", i);
+        }
+        Ok(())
     }
 
     proptest! {
@@ -502,15 +573,16 @@ mod tests {
             (values, distances) in brick(),
             (other_values, other_distances) in brick(),
         ) {
-            let lanes = stored_lanes(&values);
-            let r = residuals(&values, &distances, &lanes);
+            let (lanes, wave) = stored_lanes(&values);
+            let r = residuals(&values, &distances, &wave);
             let mut coded = Vec::new();
             let mut predicted = Vec::new();
             code(&lanes, |t, x, c| {
                 let i = voxel(t, x);
                 coded.push((i, c));
-                predicted.push((i, distances[i].wrapping_sub(r[t][x])));
-                zigzag(r[t][x])
+                let (s, j) = wave_at(t, x);
+                predicted.push((i, distances[i].wrapping_sub(r[s][j])));
+                zigzag(r[s][j])
             });
             let (mut known, mut known_z) = ([None; BRICK_VOXELS], [None; BRICK_VOXELS]);
             let (mut defined, mut defined_contexts) = (Vec::new(), Vec::new());
@@ -525,19 +597,20 @@ mod tests {
             }
             prop_assert_eq!(predicted, defined);
             prop_assert_eq!(coded, defined_contexts);
-            for (train_v, train_d) in [(&values, &distances), (&other_values, &other_distances)] {
-                let mut counts = [[0u64; 256]; CONTEXTS];
-                count(train_v, train_d, &mut counts);
-                let tables = Tables::fit(&counts);
-                let mut stream = Vec::new();
-                encode(&values, &distances, &tables, &mut stream);
-                let mut out = [0i16; BRICK_VOXELS];
-                decode_into(&values, &stream, &tables, &mut out).unwrap();
-                for i in 0..BRICK_VOXELS {
-                    let want = if distance_is_read(values[i]) { distances[i] } else { outer_distance(values[i]) };
-                    prop_assert_eq!(out[i], want, "voxel {}", i);
-                }
-            }
+            round_trip(&values, &distances, &values, &distances)?;
+            round_trip(&values, &distances, &other_values, &other_distances)?;
+        }
+
+        /// Distances beyond any valid file's come back too: the encoder and the decoder
+        /// predict them alike, in 16 bits.
+        #[test]
+        fn distances_beyond_the_reach_come_back(
+            values in prop::collection::vec(-3i8..=3, BRICK_VOXELS),
+            distances in prop::collection::vec(any::<i16>(), BRICK_VOXELS),
+        ) {
+            let values: BrickValues = values.try_into().unwrap();
+            let distances: BrickDistances = distances.try_into().unwrap();
+            round_trip(&values, &distances, &values, &distances)?;
         }
 
         /// Any stream decodes to distances or to an error, never a panic.
@@ -551,6 +624,31 @@ mod tests {
             let tables = Tables::fit(&counts);
             let mut out = [0i16; BRICK_VOXELS];
             let _ = decode_into(&values, &stream, &tables, &mut out);
+        }
+    }
+
+    /// The prediction order holds each voxel once, at step `x + y + 4z` (after every voxel
+    /// its candidates read, one or two back along an axis), where `wave_at` puts it.
+    #[test]
+    fn the_prediction_order_holds_each_voxel_once() {
+        let mut place = [None; BRICK_VOXELS];
+        for s in 0..WAVE_STEPS {
+            for j in 0..16 {
+                if let Some(i) = wave_voxel(s, j) {
+                    assert!(place[i].is_none(), "voxel {i} twice");
+                    place[i] = Some((s, j));
+                }
+            }
+        }
+        for t in 0..STEPS {
+            for x in (0..8).filter(|&x| t >= x && t - x < 64) {
+                assert_eq!(place[voxel(t, x)], Some(wave_at(t, x)));
+            }
+        }
+        for (i, place) in place.iter().enumerate() {
+            let (x, y, z) = (i & 7, (i >> 3) & 7, i >> 6);
+            let (s, j) = place.expect("every voxel");
+            assert_eq!((s, j), (x + y + 4 * z, x + 8 * (z & 1)));
         }
     }
 
