@@ -1,20 +1,21 @@
 //! The distance residuals of codec 7 (`docs/FORMAT.md`, "Brick payload (codec 7)"): each
 //! stored distance is predicted by the median of six of codec 4's nine planar
-//! extrapolations, the voxels taken by the wavefront `t = x + y + 8z` (then by `x`), and its
-//! residual is coded by [`rans`](super::rans) with the table of its context: the class of the
+//! extrapolations, the voxels coded in the order of the wavefront `t = x + y + 8z` (then of
+//! `x`), and its residual is coded by [`rans`](super::rans) with the table of its context: the class of the
 //! largest residual among five neighbours coded before it.
 //!
 //! Why a wavefront: codec 5's nine candidates predict the distances well, but four of them
 //! read the voxel before along x, so a row is predicted voxel after voxel. The voxels of one
 //! `t` (an anti-diagonal of a slice and the far half of the one eight further in the slice
-//! below) read none of each other through codec 4's `A` to `F`: a whole step is predicted at
-//! once, eight lanes wide. Their median predicts better than that of the eight but `G` (the
+//! below) read none of each other through codec 4's `A` to `F`: a whole step could be
+//! predicted at once, eight lanes wide. Their median predicts better than that of the eight but `G` (the
 //! VTK gears' file 1.430 times its version 1 file against 1.438), with fewer sums and a
 //! smaller network (`docs/PERFORMANCE.md`, "Version 7").
 //!
 //! The decoder predicts in another order than it codes, `x + y + 4z` ([`Wave`]): sixteen
 //! voxels a step, in 16-bit lanes, 43 steps a brick instead of 71. Each candidate reads
-//! voxels before it in both orders, so the predictions are the same.
+//! voxels at no greater `x`, `y` or `z` than its own, which come before it in both orders, so
+//! the predictions are the same.
 //!
 //! Why contexts of residuals: where the field is smooth the residual is nearly always 0 or
 //! ±1, near a kink (a mesh edge, the medial axis) it is anything, and kinks run on through
@@ -22,7 +23,7 @@
 //! than the spread of the voxel's own candidates did (the VTK gears' file 1.438 times its
 //! version 1 file instead of 1.463, both with eight candidates), and it depends on no
 //! prediction: a decoder reads all a brick's residuals first, in one loop of table look-ups,
-//! and then predicts row after row, no lane waiting on the entropy coder
+//! and then predicts step after step, no lane waiting on the entropy coder
 //! (`docs/PERFORMANCE.md`, "Version 7").
 
 use crate::voxmap::{distance_is_read, outer_distance, BrickDistances, BrickValues};
@@ -186,13 +187,14 @@ const NONE: i16 = 0;
 /// residual of each distance in `distances` is written to `residuals`. Lanes not stored are
 /// left as they are.
 ///
-/// Why another order than the coding order: each candidate reads voxels one to two back
-/// along an axis, which come before in both orders, so the predictions are those of the
-/// coding order; but a step here holds twice the voxels in half the bits (43 steps of
+/// Why another order than the coding order: each candidate reads voxels at no greater `x`,
+/// `y` or `z` than its own, which come before it in both orders, so the predictions are
+/// those of the coding order; but a step here holds twice the voxels in half the bits (43 steps of
 /// sixteen 16-bit lanes, not 71 of eight 32-bit ones). The distances of a valid file and
-/// their candidates fit in 16 bits ([`BIAS`]); where a corrupt stream decodes a distance
-/// beyond them, the first such distance is decoded as the definition says (all it reads is
-/// within them) and [`distance_fault`](super::codec::distance_fault) refuses the brick.
+/// their candidates fit in 16 bits ([`BIAS`]). A brick the definition's 32 bits would decode
+/// to a distance beyond them decodes to that same distance here (the first such, in either
+/// order: all it reads is within them), and
+/// [`distance_fault`](super::codec::distance_fault) refuses it; any other decodes the same.
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn predict(
     values: &BrickValues,
@@ -352,17 +354,17 @@ fn residual(distance: i16, prediction: i32) -> u16 {
     zigzag(distance.wrapping_sub(prediction as i16))
 }
 
-/// The residuals of a brick's stored voxels (those of its `lanes`, bit `j` of step `s`), in
-/// [`Wave`]'s order.
-fn residuals(values: &BrickValues, distances: &BrickDistances, lanes: &[u16; WAVE_STEPS]) -> Wave {
+/// The residuals of a brick's stored voxels (bit `j` of step `s` of `stored`), in [`Wave`]'s
+/// order.
+fn residuals(values: &BrickValues, distances: &BrickDistances, stored: &[u16; WAVE_STEPS]) -> Wave {
     let mut skewed = [[0i16; 16]; WAVE_STEPS];
-    for (s, &bits) in lanes.iter().enumerate() {
+    for (s, &bits) in stored.iter().enumerate() {
         for j in lanes_of(bits) {
             skewed[s][j] = wave_voxel(s, j).map_or(0, |i| distances[i]);
         }
     }
     let mut residuals = [[0i16; 16]; WAVE_STEPS];
-    predict(values, lanes, &mut skewed, &mut residuals, false);
+    predict(values, stored, &mut skewed, &mut residuals, false);
     residuals
 }
 
@@ -613,6 +615,69 @@ mod tests {
             round_trip(&values, &distances, &values, &distances)?;
         }
 
+        /// Any residuals, also those of a corrupt stream, decode in 16 bits as the definition
+        /// decodes them in 32, or both decode a distance beyond the reach of the most layers
+        /// (which the reader refuses).
+        #[test]
+        fn sixteen_bits_decode_as_the_definition_or_both_go_beyond_the_reach(
+            values in prop::collection::vec(-3i8..=3, BRICK_VOXELS),
+            small in prop::collection::vec(-40i16..40, BRICK_VOXELS),
+            wild in prop::collection::vec((0..BRICK_VOXELS, any::<i16>()), 0..4),
+        ) {
+            let values: BrickValues = values.try_into().unwrap();
+            let mut residuals = small;
+            for (i, r) in wild {
+                residuals[i] = r;
+            }
+            let reach = i32::from(far_distance(MAX_LAYERS, 1));
+            let mut known = [None; BRICK_VOXELS];
+            for i in order() {
+                if distance_is_read(values[i]) {
+                    let p = plain(&known, i, values[i]) as i16;
+                    known[i] = Some(i32::from(p.wrapping_add(residuals[i])));
+                }
+            }
+            let (_, stored) = stored_lanes(&values);
+            let mut wave = [[0i16; 16]; WAVE_STEPS];
+            for (s, &bits) in stored.iter().enumerate() {
+                for j in lanes_of(bits) {
+                    wave[s][j] = residuals[wave_voxel(s, j).unwrap()];
+                }
+            }
+            let mut distances = [[0i16; 16]; WAVE_STEPS];
+            predict(&values, &stored, &mut distances, &mut wave, true);
+            let mut decoded = [None; BRICK_VOXELS];
+            for (s, &bits) in stored.iter().enumerate() {
+                for j in lanes_of(bits) {
+                    decoded[wave_voxel(s, j).unwrap()] = Some(i32::from(distances[s][j]));
+                }
+            }
+            let beyond = |d: &[Option<i32>; BRICK_VOXELS]| d.iter().flatten().any(|d| d.abs() > reach);
+            prop_assert_eq!(beyond(&decoded), beyond(&known));
+            if !beyond(&known) {
+                prop_assert_eq!(decoded, known);
+            }
+        }
+
+        /// The stored lanes of both orders are the voxels a contact reads.
+        #[test]
+        fn stored_lanes_are_the_voxels_read(values in prop::collection::vec(-4i8..=3, BRICK_VOXELS)) {
+            let values: BrickValues = values.try_into().unwrap();
+            let (coding, wave) = stored_lanes(&values);
+            for (t, &bits) in coding.iter().enumerate() {
+                for x in 0..8 {
+                    let read = t >= x && t - x < 64 && distance_is_read(values[voxel(t, x)]);
+                    prop_assert_eq!(bits >> x & 1 != 0, read, "row {} lane {}", t, x);
+                }
+            }
+            for (s, &bits) in wave.iter().enumerate() {
+                for j in 0..16 {
+                    let read = wave_voxel(s, j).is_some_and(|i| distance_is_read(values[i]));
+                    prop_assert_eq!(bits >> j & 1 != 0, read, "step {} lane {}", s, j);
+                }
+            }
+        }
+
         /// Any stream decodes to distances or to an error, never a panic.
         #[test]
         fn any_stream_decodes_or_fails(
@@ -628,7 +693,7 @@ mod tests {
     }
 
     /// The prediction order holds each voxel once, at step `x + y + 4z` (after every voxel
-    /// its candidates read, one or two back along an axis), where `wave_at` puts it.
+    /// its candidates read, at no greater `x`, `y` or `z`), where `wave_at` puts it.
     #[test]
     fn the_prediction_order_holds_each_voxel_once() {
         let mut place = [None; BRICK_VOXELS];
