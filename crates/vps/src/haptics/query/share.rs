@@ -15,29 +15,37 @@ use std::sync::Mutex;
 /// the pool's threads than the pool has (so that as many threads work as there are, the caller
 /// among them). Each takes the next item no one has taken, and makes its `state` (a cursor,
 /// say) with `make_state` before its first item, so a thread that finds no item left makes
-/// none. The results come back in item order, whichever thread made them.
+/// none. The results come back in item order, whichever thread made them; or the error of
+/// the first item that failed, as a walk of the items in order would give it. After an item
+/// fails no thread starts one after it: items are taken in order, so every item before the
+/// first that fails has been taken, and runs.
 ///
 /// The scope ends when every job it spawned has run, so a pool thread that takes a job late
 /// (busy with other work, or queued by the scheduler behind another thread) still holds the
 /// caller up, though it finds no item left; right after opening a voxmap, the jobs queue
 /// behind what opening left for each pool thread to make. Waiting for them needs no `unsafe`
 /// and no `'static` copy of the query's data, which detached jobs would.
-pub(super) fn share<S, R: Send>(
+pub(super) fn share<S, R: Send, E: Send>(
     n: usize,
     make_state: impl Fn() -> S + Sync,
-    task: impl Fn(&mut S, usize) -> R + Sync,
-) -> Vec<R> {
+    task: impl Fn(&mut S, usize) -> Result<R, E> + Sync,
+) -> Result<Vec<R>, E> {
     let next = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<R>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    // The first item known to have failed; items after it are not started.
+    let failed = AtomicUsize::new(usize::MAX);
+    let results: Vec<Mutex<Option<Result<R, E>>>> = (0..n).map(|_| Mutex::new(None)).collect();
     let work = || {
         let mut state = None;
         loop {
             let i = next.fetch_add(1, Ordering::Relaxed);
-            if i >= n {
+            if i >= n || i > failed.load(Ordering::Relaxed) {
                 return;
             }
             let state = state.get_or_insert_with(&make_state);
             let r = task(state, i);
+            if r.is_err() {
+                failed.fetch_min(i, Ordering::Relaxed);
+            }
             // A lock taken once per item, by one thread: it only hands the result over.
             *results[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
         }
@@ -49,12 +57,13 @@ pub(super) fn share<S, R: Send>(
         }
         work();
     });
+    // In item order, the first failure comes before any item not started.
     results
         .into_iter()
         .map(|r| {
             r.into_inner()
                 .unwrap_or_else(|e| e.into_inner())
-                .expect("every item is taken once and finished before the scope ends")
+                .expect("every item up to the first that fails is taken once and finished before the scope ends")
         })
         .collect()
 }
@@ -80,10 +89,10 @@ mod tests {
             |id, i| {
                 ran.lock().unwrap().push((i, *id));
                 std::thread::sleep(std::time::Duration::from_micros(micros));
-                i * 3
+                Ok::<_, ()>(i * 3)
             },
         );
-        (out, ran.into_inner().unwrap())
+        (out.unwrap(), ran.into_inner().unwrap())
     }
 
     /// Every item once, results in item order, on pools of one thread and of more threads
@@ -103,6 +112,38 @@ mod tests {
                 assert_eq!((ran.len(), items.len()), (n, n));
                 let workers: HashSet<ThreadId> = ran.iter().map(|r| r.1).collect();
                 assert!(workers.len() <= threads, "{} threads at work", workers.len());
+            }
+        }
+    }
+
+    /// The error of the first item that fails comes back, whatever the threads, every item
+    /// before it having run; on one thread no item after it starts.
+    #[test]
+    fn the_first_failure_comes_back_and_stops_the_items_after_it() {
+        for threads in [1, 2, 3, 8] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let ran = AtomicUsize::new(0);
+            let out = pool.install(|| {
+                share(
+                    500,
+                    || (),
+                    |(), i| {
+                        ran.fetch_add(1, Ordering::Relaxed);
+                        std::thread::sleep(std::time::Duration::from_micros(50));
+                        if i == 60 || i == 61 || i == 300 {
+                            Err(i)
+                        } else {
+                            Ok(i)
+                        }
+                    },
+                )
+            });
+            assert_eq!(out, Err(60), "{threads} threads");
+            // How many the other threads start before item 60 fails depends on the scheduler.
+            let ran = ran.into_inner();
+            assert!(ran >= 61, "{threads} threads ran {ran} items");
+            if threads == 1 {
+                assert_eq!(ran, 61);
             }
         }
     }
@@ -129,8 +170,10 @@ mod tests {
                     }
                 }
                 ran.lock().unwrap().push((i, *id));
+                Ok::<_, ()>(())
             },
-        );
+        )
+        .unwrap();
         let ran = ran.into_inner().unwrap();
         assert_eq!(ran.len(), 64);
         assert!(ran.iter().any(|r| r.1 == caller), "the caller ran none of 64 items");

@@ -199,9 +199,9 @@ impl Frame<'_> {
             self.sums_below(cur, t, &mut task_sums).map(|()| task_sums)
         };
         if points >= parallel_min_points && tasks.len() > 1 {
-            let done = share(tasks.len(), || self.voxmap.cursor(), |cur, k| task(cur, tasks[k]));
+            let done = share(tasks.len(), || self.voxmap.cursor(), |cur, k| task(cur, tasks[k]))?;
             for t in done {
-                sums.append(t?);
+                sums.append(t);
             }
         } else {
             // One list of sums for all the tasks: no list of its own to append for each.
