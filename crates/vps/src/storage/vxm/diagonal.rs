@@ -122,9 +122,10 @@ fn code(lanes: &[u8; STEPS], mut residual: impl FnMut(usize, usize, usize) -> u1
         // Lane y = 0 is lane t mod 8, lane y = 7 is lane t + 1 mod 8.
         let b = before & !(0xFF << (8 * (t & 7)));
         let yc = classes[t + 1] & !(0xFF << (8 * ((t + 1) & 7)));
-        let contexts = [b, classes[t], classes[t + 1] >> 8, yc]
-            .into_iter()
-            .fold(before << 8, max_bytes);
+        // The neighbours on rows t − 8 and t − 7 first: only the last two maxima wait for
+        // row t − 1, whose classes wait for its symbols.
+        let earlier = max_bytes(max_bytes(classes[t], classes[t + 1] >> 8), yc);
+        let contexts = max_bytes(max_bytes(before << 8, b), earlier);
         let mut row = 0u64;
         for x in lanes_of(bits) {
             let z = residual(t, x, (contexts >> (8 * x)) as usize & 0xF);
@@ -213,13 +214,17 @@ fn predict(
             continue;
         }
         let mut p = step(&f, s, &back1, &back2);
+        // Lane j kept: all ones, else 0 (a lane and-ed with it is NONE). Masks, not bools:
+        // with bools the lanes below were kept one at a time, in scalar code (`perf`).
+        let keep: [i16; 16] = std::array::from_fn(|j| -(((bits >> j) & 1) as i16));
         // Lanes of no voxel have no candidates either: only the stored lanes are checked.
-        let missing = (0..16).fold(0u16, |m, j| m | u16::from(p[j] == NONE) << j) & bits;
-        for j in lanes_of(missing) {
-            let v = wave_voxel(s, j).map_or(0, |i| values[i]);
-            p[j] = (32 * i16::from(v)).wrapping_add(BIAS);
+        let missing: [i16; 16] = std::array::from_fn(|j| -i16::from(p[j] == NONE) & keep[j]);
+        if missing != [0; 16] {
+            for j in (0..16).filter(|&j| missing[j] != 0) {
+                let v = wave_voxel(s, j).map_or(0, |i| values[i]);
+                p[j] = (32 * i16::from(v)).wrapping_add(BIAS);
+            }
         }
-        let keep: [bool; 16] = std::array::from_fn(|j| bits & 1 << j != 0);
         let mut row = [NONE; 16];
         for j in 0..16 {
             let prediction = p[j].wrapping_sub(BIAS);
@@ -228,17 +233,12 @@ fn predict(
             } else {
                 distances[s][j]
             };
-            let keep = keep[j];
             if decoding {
-                distances[s][j] = if keep { d } else { distances[s][j] };
+                distances[s][j] = (d & keep[j]) | (distances[s][j] & !keep[j]);
             } else {
-                residuals[s][j] = if keep {
-                    d.wrapping_sub(prediction)
-                } else {
-                    residuals[s][j]
-                };
+                residuals[s][j] = (d.wrapping_sub(prediction) & keep[j]) | (residuals[s][j] & !keep[j]);
             }
-            row[j] = if keep { d.wrapping_add(BIAS) } else { NONE };
+            row[j] = d.wrapping_add(BIAS) & keep[j];
         }
         f[s + 8] = row;
         (back1, back2) = (row, back1);
