@@ -1,16 +1,16 @@
 //! The distance residuals of codec 7 (`docs/FORMAT.md`, "Brick payload (codec 7)"): each
 //! stored distance is predicted by the median of six of codec 4's nine planar
 //! extrapolations, the voxels coded in the order of the wavefront `t = x + y + 8z` (then of
-//! `x`), and its residual is coded by [`rans`](super::rans) with the table of its context: the class of the
-//! largest residual among five neighbours coded before it.
+//! `x`), and its residual is coded by [`rans`](super::rans) with the table of its context:
+//! the class of the largest residual among five neighbours coded before it.
 //!
 //! Why a wavefront: codec 5's nine candidates predict the distances well, but four of them
 //! read the voxel before along x, so a row is predicted voxel after voxel. The voxels of one
 //! `t` (an anti-diagonal of a slice and the far half of the one eight further in the slice
 //! below) read none of each other through codec 4's `A` to `F`: a whole step could be
-//! predicted at once, eight lanes wide. Their median predicts better than that of the eight but `G` (the
-//! VTK gears' file 1.430 times its version 1 file against 1.438), with fewer sums and a
-//! smaller network (`docs/PERFORMANCE.md`, "Version 7").
+//! predicted at once, eight lanes wide. Their median predicts better than that of the eight
+//! but `G` (the VTK gears' file 1.430 times its version 1 file against 1.438), with fewer
+//! sums and a smaller network (`docs/PERFORMANCE.md`, "Version 7").
 //!
 //! The decoder predicts in another order than it codes, `x + y + 4z` ([`Wave`]): sixteen
 //! voxels a step, in 16-bit lanes, 43 steps a brick instead of 71. Each candidate reads
@@ -188,14 +188,14 @@ const NONE: i16 = 0;
 /// residual of each distance in `distances` is written to `residuals`. Lanes not stored are
 /// left as they are.
 ///
-/// Why another order than the coding order: each candidate reads voxels at no greater `x`,
-/// `y` or `z` than its own, which come before it in both orders, so the predictions are
-/// those of the coding order; but a step here holds twice the voxels in half the bits (43 steps of
-/// sixteen 16-bit lanes, not 71 of eight 32-bit ones). The distances of a valid file and
-/// their candidates fit in 16 bits ([`BIAS`]). A brick the definition's 32 bits would decode
-/// to a distance beyond them decodes to that same distance here (the first such, in either
-/// order: all it reads is within them), and
-/// [`distance_fault`](super::codec::distance_fault) refuses it; any other decodes the same.
+/// Why another order than the coding order: each candidate reads voxels at no greater `x`, `y`
+/// or `z` than its own, which come before it in both orders, so the predictions are those of
+/// the coding order; but a step here holds twice the voxels in half the bits (43 steps of
+/// sixteen 16-bit lanes, not 71 of eight 32-bit ones). The distances of a valid file and their
+/// candidates fit in 16 bits ([`BIAS`]). A brick the definition's 32 bits would decode to a
+/// distance beyond them decodes to that same distance here (the first such, in either order:
+/// all it reads is within them), and [`distance_fault`](super::codec::distance_fault) refuses
+/// it; any other decodes the same.
 #[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx"))]
 fn predict(
     values: &BrickValues,
